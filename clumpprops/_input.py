@@ -1,0 +1,146 @@
+"""Validation and normalisation of clump input (no physics here).
+
+Every public entry point funnels ``centers``, ``radii`` and ``density`` through
+:func:`normalize`, which turns the three accepted layouts into one flat
+representation that all methods share:
+
+* one clump: ``centers`` (N, 3), ``radii`` (N,)
+* a regular batch: ``centers`` (M, N, 3), ``radii`` (M, N)
+* a ragged batch: a sequence of M arrays (N_m, 3) and a sequence of M arrays (N_m,)
+
+The flat form is ``Spheres``: all spheres stacked (S, 3) and (S,), the clump
+index of each sphere (S,), the number of clumps M, and a per-clump origin (M, 3)
+near the clump's centre (the volume-weighted mean of its sphere centres).  All
+moments are taken about that origin, so clumps far from the world origin
+(1e6 m offsets) lose no digits to cancellation.
+
+Bad input raises ``ValueError`` naming the problem, never NaN.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Spheres:
+    centers: np.ndarray  # (S, 3) m, relative to the clump origin
+    radii: np.ndarray  # (S,) m
+    clump: np.ndarray  # (S,) int, clump index of each sphere
+    n_clumps: int  # M
+    origin: np.ndarray  # (M, 3) m, world position of each clump's origin
+    local: np.ndarray  # (S,) int, index of the sphere inside its clump
+    batched: bool  # True when the caller passed a batch (regular or ragged)
+    counts: np.ndarray  # (M,) number of spheres per clump
+    starts: np.ndarray  # (M,) index of each clump's first sphere (spheres are grouped by clump)
+
+
+def _as_float_array(x, name):
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric array-like: {exc}") from None
+    return a
+
+
+def _check_finite_positive(radii, name="radii"):
+    if not np.all(np.isfinite(radii)):
+        raise ValueError(f"{name} contains NaN or inf")
+    if np.any(radii <= 0):
+        bad = np.flatnonzero(radii.ravel() <= 0)[:5]
+        raise ValueError(f"{name} must be > 0 (m); got non-positive value(s) at flat index {bad.tolist()}")
+
+
+def check_density(density) -> float:
+    try:
+        rho = float(density)
+    except (TypeError, ValueError):
+        raise ValueError(f"density must be a positive number (kg/m^3), got {density!r}") from None
+    if not np.isfinite(rho) or rho <= 0:
+        raise ValueError(f"density must be a positive finite number (kg/m^3), got {density!r}")
+    return rho
+
+
+def normalize(centers, radii) -> Spheres:
+    """Check and flatten clump input; see the module docstring for layouts."""
+    ragged = (
+        isinstance(centers, (list, tuple))
+        and len(centers) > 0
+        and all(np.ndim(c) == 2 for c in centers)
+        and isinstance(radii, (list, tuple))
+    )
+    if ragged:
+        if len(centers) != len(radii):
+            raise ValueError(f"got {len(centers)} clumps of centers but {len(radii)} of radii")
+        cs, rs = [], []
+        for m, (c, r) in enumerate(zip(centers, radii)):
+            c = _as_float_array(c, f"centers[{m}]")
+            r = _as_float_array(r, f"radii[{m}]")
+            if c.ndim != 2 or c.shape[1] != 3:
+                raise ValueError(f"centers[{m}] must have shape (N, 3), got {c.shape}")
+            if r.shape != (c.shape[0],):
+                raise ValueError(f"radii[{m}] must have shape ({c.shape[0]},) to match centers[{m}], got {r.shape}")
+            if c.shape[0] == 0:
+                raise ValueError(f"clump {m} is empty (no spheres)")
+            cs.append(c)
+            rs.append(r)
+        counts = np.array([len(r) for r in rs], dtype=np.int64)
+        c_all = np.concatenate(cs, axis=0)
+        r_all = np.concatenate(rs)
+        batched = True
+    else:
+        c = _as_float_array(centers, "centers")
+        r = _as_float_array(radii, "radii")
+        if c.ndim == 2:
+            batched = False
+            c = c[None]
+            r = r[None] if r.ndim == 1 else r
+        elif c.ndim == 3:
+            batched = True
+        else:
+            raise ValueError(f"centers must have shape (N, 3) or (M, N, 3), got {c.shape}")
+        if c.shape[-1] != 3:
+            raise ValueError(f"centers must have 3 coordinates in the last axis, got shape {c.shape}")
+        if r.shape != c.shape[:-1]:
+            want = c.shape[1:-1] if not batched else c.shape[:-1]
+            raise ValueError(f"radii must have shape {want} to match centers {centers_shape(centers)}, got {np.shape(radii)}")
+        if c.shape[0] == 0:
+            raise ValueError("empty batch: no clumps")
+        if c.shape[1] == 0:
+            raise ValueError("empty clump: no spheres")
+        M, N = c.shape[:2]
+        counts = np.full(M, N, dtype=np.int64)
+        c_all = c.reshape(-1, 3)
+        r_all = r.reshape(-1)
+    if not np.all(np.isfinite(c_all)):
+        raise ValueError("centers contains NaN or inf")
+    _check_finite_positive(r_all)
+    M = len(counts)
+    clump = np.repeat(np.arange(M), counts)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    local = np.arange(len(r_all)) - np.repeat(starts, counts)
+    # origin: volume-weighted mean of sphere centres, relative to the first sphere
+    # (so the weighted sum itself involves only small numbers)
+    first = c_all[starts]
+    rel = c_all - first[clump]
+    w = r_all**3 / np.repeat(np.add.reduceat(r_all**3, starts), counts)
+    origin = first + np.add.reduceat(w[:, None] * rel, starts, axis=0)
+    return Spheres(
+        centers=c_all - origin[clump],
+        radii=r_all,
+        clump=clump,
+        n_clumps=M,
+        origin=origin,
+        local=local,
+        batched=batched,
+        counts=counts,
+        starts=starts,
+    )
+
+
+def centers_shape(centers):
+    try:
+        return np.shape(centers)
+    except Exception:  # pragma: no cover - exotic input
+        return "?"
