@@ -1,0 +1,92 @@
+"""Shared helpers for the YADE adapter tests (real YADE, plain ``import yade``)."""
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # before YADE is imported anywhere in this process
+
+import numpy as np
+import pytest
+
+yade = pytest.importorskip("yade")
+from yade import utils  # noqa: E402
+from yade.wrapper import FrictMat  # noqa: E402
+
+O = yade.O
+
+PAPER_D = 0.1333  # m, sphere diameter of the paper's dimer
+PAPER_RHO = 1140.0  # kg/m^3
+
+
+def fresh_scene(density=PAPER_RHO, young=1e7, poisson=0.4, friction_deg=0.0):
+    O.reset()
+    O.materials.append(FrictMat(density=density, young=young, poisson=poisson, frictionAngle=np.radians(friction_deg), label="mat"))
+    return O
+
+
+def vec(v):
+    return np.array([float(v[0]), float(v[1]), float(v[2])])
+
+
+def rotation(q):
+    m = q.toRotationMatrix()
+    return np.array([[float(m[i, j]) for j in range(3)] for i in range(3)])
+
+
+def random_clump(rng, n, origin=(0.0, 0.0, 0.0), scale=0.1):
+    """n overlapping spheres grown from a seed, dense enough that triples share volume."""
+    c = [np.zeros(3)]
+    r = [scale * rng.uniform(0.6, 1.0)]
+    while len(c) < n:
+        k = rng.integers(len(c))
+        rn = scale * rng.uniform(0.4, 1.0)
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        c.append(c[k] + u * (r[k] + rn) * rng.uniform(0.3, 0.8))
+        r.append(rn)
+    return np.array(c) + np.asarray(origin, float), np.array(r)
+
+
+def make_spheres(centers, radii, material="mat"):
+    return [utils.sphere(tuple(float(a) for a in x), float(rr), material=material) for x, rr in zip(centers, radii)]
+
+
+def yade_inertia(state):
+    R = rotation(state.ori)
+    return R @ np.diag(vec(state.inertia)) @ R.T
+
+
+def assert_state_matches(state, mp, rtol=1e-12):
+    """state.mass, state.pos, R diag(inertia) R^T and the principal moments equal the library's."""
+    assert abs(float(state.mass) - mp.mass) <= rtol * mp.mass, (float(state.mass), mp.mass)
+    size = np.sqrt(np.trace(mp.inertia) / (2 * mp.mass))  # radius of gyration
+    dc = np.linalg.norm(vec(state.pos) - mp.center_of_mass)
+    assert dc <= rtol * size, (dc, size)
+    Imax = float(np.max(mp.principal_moments))
+    dI = np.max(np.abs(yade_inertia(state) - mp.inertia))
+    assert dI <= rtol * Imax, (dI, Imax)
+    dw = np.max(np.abs(np.sort(vec(state.inertia)) - mp.principal_moments))
+    assert dw <= rtol * Imax, (dw, Imax)
+
+
+def scene_snapshot():
+    """Everything bad input must not change: bodies, shapes, states, clump membership."""
+    snap = [len(O.bodies)]
+    for b in O.bodies:
+        if b is None:
+            snap.append(None)
+            continue
+        st = b.state
+        snap.append(
+            (
+                b.id,
+                type(b.shape).__name__,
+                b.clumpId,
+                b.bounded,
+                tuple(vec(st.pos)),
+                float(st.mass),
+                tuple(vec(st.inertia)),
+                tuple(float(a) for a in (st.ori.toAxisAngle()[0] * st.ori.toAxisAngle()[1])),
+                tuple(vec(st.vel)),
+                tuple(sorted(b.shape.members.keys())) if b.isClump else None,
+            )
+        )
+    return snap
