@@ -34,6 +34,7 @@ class Spheres:
     batched: bool  # True when the caller passed a batch (regular or ragged)
     counts: np.ndarray  # (M,) number of spheres per clump
     starts: np.ndarray  # (M,) index of each clump's first sphere (spheres are grouped by clump)
+    regular: int  # N if every clump has N spheres, else 0
 
 
 def _as_float_array(x, name):
@@ -117,17 +118,30 @@ def normalize(centers, radii) -> Spheres:
         raise ValueError("centers contains NaN or inf")
     _check_finite_positive(r_all)
     M = len(counts)
-    clump = np.repeat(np.arange(M), counts)
+    N = int(counts[0]) if np.all(counts == counts[0]) else 0
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    local = np.arange(len(r_all)) - np.repeat(starts, counts)
-    # origin: volume-weighted mean of sphere centres, relative to the first sphere
-    # (so the weighted sum itself involves only small numbers)
-    first = c_all[starts]
-    rel = c_all - first[clump]
-    w = r_all**3 / np.repeat(np.add.reduceat(r_all**3, starts), counts)
-    origin = first + np.add.reduceat(w[:, None] * rel, starts, axis=0)
+    # origin: volume-weighted mean of sphere centres, accumulated relative to the first
+    # sphere so that the sum involves only small numbers
+    r3 = r_all**3
+    if N:
+        c3 = c_all.reshape(M, N, 3)
+        first = c3[:, 0, :]
+        w = r3.reshape(M, N)
+        w = w / w.sum(axis=1, keepdims=True)
+        origin = first + np.einsum("mn,mnx->mx", w, c3 - first[:, None, :])
+        rel = (c3 - origin[:, None, :]).reshape(-1, 3)
+        clump = np.repeat(np.arange(M), N)
+        local = np.tile(np.arange(N), M)
+    else:
+        clump = np.repeat(np.arange(M), counts)
+        local = np.arange(len(r_all)) - np.repeat(starts, counts)
+        first = c_all[starts]
+        rel0 = c_all - first[clump]
+        w = r3 / np.repeat(np.add.reduceat(r3, starts), counts)
+        origin = first + np.add.reduceat(w[:, None] * rel0, starts, axis=0)
+        rel = c_all - origin[clump]
     return Spheres(
-        centers=c_all - origin[clump],
+        centers=rel,
         radii=r_all,
         clump=clump,
         n_clumps=M,
@@ -136,7 +150,15 @@ def normalize(centers, radii) -> Spheres:
         batched=batched,
         counts=counts,
         starts=starts,
+        regular=N,
     )
+
+
+def segment_sum(x, sph: Spheres):
+    """Sum per-sphere values x (S, ...) over each clump -> (M, ...)."""
+    if sph.regular:
+        return x.reshape((sph.n_clumps, sph.regular) + x.shape[1:]).sum(axis=1)
+    return np.add.reduceat(x, sph.starts, axis=0)
 
 
 def centers_shape(centers):

@@ -42,10 +42,9 @@ def candidate_pairs(sph: Spheres):
     if not out_a:
         e = np.zeros(0, dtype=np.int64)
         return e, e
-    a = np.concatenate(out_a).astype(np.int64)
-    b = np.concatenate(out_b).astype(np.int64)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    return lo, hi
+    a = np.concatenate(out_a) if len(out_a) > 1 else out_a[0]
+    b = np.concatenate(out_b) if len(out_b) > 1 else out_b[0]
+    return a.astype(np.int64, copy=False), b.astype(np.int64, copy=False)
 
 
 def overlapping_pairs(sph: Spheres):

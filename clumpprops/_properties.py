@@ -22,12 +22,19 @@ import numpy as np
 
 
 def _frozen(a):
-    """Read-only float64 copy; a 0-d value becomes a plain Python float."""
-    a = np.array(a, dtype=np.float64, copy=True)
+    """Read-only float64 array (copied unless already read-only float64); 0-d becomes a float."""
+    if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and not a.flags.writeable):
+        a = np.array(a, dtype=np.float64, copy=True)
     if a.ndim == 0:
         return float(a)
     a.setflags(write=False)
     return a
+
+
+def _seal(*arrays):
+    for a in arrays:
+        if isinstance(a, np.ndarray):
+            a.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -118,19 +125,19 @@ class MassProperties:
 def principal(inertia: np.ndarray):
     """Ascending principal moments (..., 3) and right-handed axes (..., 3, 3) of symmetric (..., 3, 3)."""
     w, v = np.linalg.eigh(inertia)
-    det = np.linalg.det(v)
+    det = np.einsum("...i,...i->...", np.cross(v[..., :, 0], v[..., :, 1]), v[..., :, 2])
     v[..., :, 2] *= np.where(det < 0, -1.0, 1.0)[..., None]
     return w, v
 
 
 def inertia_from_second_moment(Qc: np.ndarray, density: float) -> np.ndarray:
     """I = rho (tr(Q_c) 1 - Q_c) for central second moments Q_c (..., 3, 3)."""
-    tr = np.trace(Qc, axis1=-2, axis2=-1)
-    I = -Qc * density
-    I[..., 0, 0] += tr * density
-    I[..., 1, 1] += tr * density
-    I[..., 2, 2] += tr * density
-    return 0.5 * (I + np.swapaxes(I, -1, -2))
+    tr = np.trace(Qc, axis1=-2, axis2=-1) * density
+    I = 0.5 * (Qc + np.swapaxes(Qc, -1, -2))
+    I *= -density
+    for k in range(3):
+        I[..., k, k] += tr
+    return I
 
 
 def finish(V, S, Q, origin, density, method, batched, standard_error=None) -> MassProperties:
@@ -139,11 +146,13 @@ def finish(V, S, Q, origin, density, method, batched, standard_error=None) -> Ma
     if np.any(~np.isfinite(V)) or np.any(V <= 0):
         raise ArithmeticError(f"internal error in method {method!r}: non-positive or non-finite volume {V}")
     d = S / V[:, None]
-    Qc = Q - S[:, :, None] * d[:, None, :]
+    Qc = Q
+    Qc -= S[:, :, None] * d[:, None, :]
     I = inertia_from_second_moment(Qc, density)
     w, axes = principal(I)
     com = origin + d
     mass = density * V
+    _seal(mass, V, com, I, w, axes)  # fresh arrays owned here: freeze without copying
     if not batched:
         mass, V, com, I, w, axes = mass[0], V[0], com[0], I[0], w[0], axes[0]
         if standard_error is not None:

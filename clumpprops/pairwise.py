@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._input import Spheres
+from ._input import Spheres, segment_sum
 from ._pairs import overlapping_pairs
 
 
@@ -38,13 +38,15 @@ def sphere_moments(sph: Spheres):
     """Per-clump V (M,), S (M,3), Q (M,3,3) of the spheres summed with overlaps counted twice."""
     r, c = sph.radii, sph.centers
     v = (4.0 / 3.0) * np.pi * r**3
-    V = np.add.reduceat(v, sph.starts)
-    S = np.add.reduceat(v[:, None] * c, sph.starts, axis=0)
-    q = v[:, None, None] * c[:, :, None] * c[:, None, :]
-    iso = v * r**2 / 5.0
-    for k in range(3):
-        q[:, k, k] += iso
-    Q = np.add.reduceat(q, sph.starts, axis=0)
+    V = segment_sum(v, sph)
+    vc = v[:, None] * c
+    S = segment_sum(vc, sph)
+    Q = np.empty((sph.n_clumps, 3, 3))
+    iso = segment_sum(v * r * r, sph) / 5.0
+    for x in range(3):
+        for y in range(x, 3):
+            Q[:, x, y] = Q[:, y, x] = segment_sum(vc[:, x] * c[:, y], sph)
+        Q[:, x, x] += iso
     return V, S, Q
 
 
@@ -68,7 +70,11 @@ def cap_moments(R, l):
 
 
 def lens_moments(sph: Spheres, a, b, D, e):
-    """Volume (P,), centroid (P,3) relative to the clump origin, central second moment (P,3,3) of each overlap."""
+    """Moments of each overlap region (lens, or the smaller sphere if one contains the other).
+
+    Returns volume (P,), centroid (P,3) relative to the clump origin, and the central
+    second moment as sigma_t (P,) and sigma_ax (P,): C = sigma_t 1 + sigma_ax e e^T.
+    """
     ra, rb = sph.radii[a], sph.radii[b]
     ca = sph.centers[a]
     big_a = ra >= rb
@@ -90,15 +96,15 @@ def lens_moments(sph: Spheres, a, b, D, e):
     sig_t = st1 + st2
     base = ca + (ra - l1)[:, None] * e
     pos = base + zL[:, None] * e
-    # contained pairs: the overlap is the smaller sphere
-    small_c = np.where(big_a[:, None], sph.centers[b], ca)
-    Vs = (4.0 / 3.0) * np.pi * r_small**3
-    Vol = np.where(contained, Vs, Vl)
-    pos = np.where(contained[:, None], small_c, pos)
-    iso = np.where(contained, Vs * r_small**2 / 5.0, sig_t)
-    ax = np.where(contained, Vs * r_small**2 / 5.0, sig_a)
-    C = iso[:, None, None] * np.eye(3) + (ax - iso)[:, None, None] * e[:, :, None] * e[:, None, :]
-    return Vol, pos, C
+    if np.any(contained):
+        # the overlap is the smaller sphere
+        small_c = np.where(big_a[:, None], sph.centers[b], ca)
+        Vs = (4.0 / 3.0) * np.pi * r_small**3
+        Vl = np.where(contained, Vs, Vl)
+        pos = np.where(contained[:, None], small_c, pos)
+        sig_t = np.where(contained, Vs * r_small**2 / 5.0, sig_t)
+        sig_a = np.where(contained, sig_t, sig_a)
+    return Vl, pos, sig_t, sig_a - sig_t
 
 
 def check_no_triple_overlap(sph: Spheres, a, b, D, e):
@@ -111,7 +117,7 @@ def check_no_triple_overlap(sph: Spheres, a, b, D, e):
     circle); the triple overlap has volume iff that distance is < r_i.  Three spheres
     overlapping pairwise around a hole pass.
     """
-    if len(a) < 3:
+    if len(a) < 3 or sph.counts.max() < 3:
         return
     S = len(sph.radii)
     # adjacency as sorted global keys; triangles i<j<k with (i,j), (i,k), (j,k) all overlapping
@@ -203,14 +209,22 @@ def pairwise_moments(sph: Spheres, check=True):
     if check:
         check_no_triple_overlap(sph, a, b, D, e)
     if len(a):
-        Vl, pos, C = lens_moments(sph, a, b, D, e)
+        Vl, pos, sig_t, sig_ax = lens_moments(sph, a, b, D, e)
         m = sph.clump[a]
         M = sph.n_clumps
-        V = V - np.bincount(m, weights=Vl, minlength=M)
-        for k in range(3):
-            S[:, k] -= np.bincount(m, weights=Vl * pos[:, k], minlength=M)
-        q = C + Vl[:, None, None] * pos[:, :, None] * pos[:, None, :]
-        for r_ in range(3):
-            for c_ in range(3):
-                Q[:, r_, c_] -= np.bincount(m, weights=q[:, r_, c_], minlength=M)
+
+        def ssum(w):
+            return np.bincount(m, weights=w, minlength=M)
+
+        V = V - ssum(Vl)
+        Vp = Vl[:, None] * pos
+        iso = ssum(sig_t)
+        for x in range(3):
+            S[:, x] -= ssum(Vp[:, x])
+            Q[:, x, x] -= iso
+            for y in range(x, 3):
+                q = ssum(Vp[:, x] * pos[:, y] + sig_ax * e[:, x] * e[:, y])
+                Q[:, x, y] -= q
+                if y != x:
+                    Q[:, y, x] -= q
     return V, S, Q

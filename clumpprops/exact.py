@@ -1,0 +1,328 @@
+"""Exact volume moments of a union of spheres with any overlap pattern (``method="exact"``).
+
+The paper's eqs. (1)-(7) subtract pairwise lenses and are exact only where no point
+lies in three spheres.  This module computes the same quantities (volume, centre of
+mass, inertia tensor; eqs. 4-7 are the final assembly, done in ``_properties.finish``)
+for the union of any number of spheres, from the boundary of the union:
+
+1. Divergence theorem.  With F = x/3, x x_a/4 and x x_a x_b/5 (divergences 1, x_a and
+   x_a x_b), every volume moment of the union U is a surface integral over its
+   boundary, which is the union of the *exposed* parts E_i of the sphere surfaces.
+   On sphere i (centre c, radius r, x = c + r u) the integrands are polynomials of
+   degree <= 3 in the unit normal u, so each sphere needs only the moments
+   a = int_E 1, m1 = int_E u, m2 = int_E u u^T, m3 = int_E u u u  (dOmega)
+   of its exposed region E on the unit sphere.
+2. E is the unit sphere minus a union of caps, one per overlapping neighbour
+   (u.n_j > h_j).  Its boundary is a set of arcs of the cap circles, found exactly:
+   circle-circle intersection points split each circle into arcs, and each arc is
+   kept if no other cap covers it (decided at the arc's point farthest from that
+   cap's circle, so the decision is robust to round-off).
+3. Stokes on the sphere turns each moment into closed-form integrals over the arcs:
+   for the zero-mean (spherical-harmonic degree l >= 1) parts, int_R Y dOmega =
+   -1/(l(l+1)) oint grad(Y).nu ds, a trigonometric polynomial along each arc; for the
+   area (degree 0) the 1-form (1 - cos theta) dphi about a pole q gives
+   -h dt + 2 sgn(h + q.n) d[atan(k tan((t - delta)/2))] per arc, with the pole chosen
+   far from every circle.  No quadrature, no sampling: the result is exact up to
+   round-off.
+
+Design note with derivations and limits: docs/exact_method.md.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._input import Spheres
+from ._pairs import overlapping_pairs
+from .pairwise import sphere_moments
+
+_FOUR_PI = 4.0 * np.pi
+# candidate poles: 6 axes, 12 edge and 8 corner directions of a cube, and 6 more
+_POLES = None
+_CHUNK_ELEMENTS = 2_000_000  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+
+
+def _poles():
+    global _POLES
+    if _POLES is None:
+        g = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)], float)
+        g /= np.linalg.norm(g, axis=1)[:, None]
+        # a few irrational directions so no candidate sits on a symmetry plane of a regular clump
+        rng = np.random.default_rng(12345)
+        extra = rng.normal(size=(6, 3))
+        extra /= np.linalg.norm(extra, axis=1)[:, None]
+        _POLES = np.concatenate([g, extra])
+    return _POLES
+
+
+def _caps(sph: Spheres):
+    """Caps cut on each sphere by its overlapping neighbours, and the buried spheres.
+
+    Returns (owner (C,), n (C,3), h (C,), rho (C,)) for every cap u.n > h on the unit
+    sphere of sphere ``owner``, and a boolean (S,) of spheres inside another sphere.
+    """
+    S = len(sph.radii)
+    a, b, D, e = overlapping_pairs(sph)
+    ra, rb = sph.radii[a], sph.radii[b]
+    # containment: D + r_small <= r_big; identical spheres: the later index is buried
+    a_in_b = (D + ra <= rb) & ~((D == 0) & (ra == rb))
+    b_in_a = D + rb <= ra
+    buried = np.zeros(S, bool)
+    buried[a[a_in_b]] = True
+    buried[b[b_in_a]] = True
+    keep = ~(a_in_b | b_in_a) & ~buried[a] & ~buried[b]
+    a, b, D, e, ra, rb = a[keep], b[keep], D[keep], e[keep], ra[keep], rb[keep]
+    delta = ra + rb - D  # > 0
+    # cap on a (towards b): 1 - h_a = l_a / r_a, 1 + h_a = (r_a + D - r_b)(r_a + D + r_b) / (2 r_a D)
+    omh_a = delta * (rb - ra + D) / (2.0 * ra * D)
+    oph_a = (ra + D - rb) * (ra + D + rb) / (2.0 * ra * D)
+    omh_b = delta * (ra - rb + D) / (2.0 * rb * D)
+    oph_b = (rb + D - ra) * (rb + D + ra) / (2.0 * rb * D)
+    owner = np.concatenate([a, b])
+    n = np.concatenate([e, -e])
+    omh = np.concatenate([omh_a, omh_b])
+    oph = np.concatenate([oph_a, oph_b])
+    h = np.concatenate([1.0 - omh_a, 1.0 - omh_b])
+    # h from whichever of 1-h, 1+h is smaller keeps its digits
+    h = np.where(omh < oph, 1.0 - omh, oph - 1.0)
+    rho = np.sqrt(np.clip(omh * oph, 0.0, None))
+    other = np.concatenate([b, a])
+    return owner, other, n, h, rho, buried
+
+
+def _basis(n):
+    """Orthonormal e1, e2 with (e1, e2, n) right-handed; n (..., 3) unit."""
+    ax = np.where((np.abs(n[..., 0]) < 0.9)[..., None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    e1 = ax - np.sum(ax * n, axis=-1)[..., None] * n
+    e1 /= np.linalg.norm(e1, axis=-1)[..., None]
+    e2 = np.cross(n, e1)
+    return e1, e2
+
+
+def _sphere_surface_moments(n, h, rho, rank):
+    """Moments a, m1, m2, m3 of the exposed region of unit spheres, chunk of C spheres with K caps each.
+
+    n (C,K,3), h (C,K), rho (C,K), rank (C,K) int (tie-break order of identical caps).
+    Returns a (C,), m1 (C,3), m2 (C,3,3), m3 (C,3,3,3).
+    """
+    C, K = h.shape
+    valid = np.ones((C, K), bool)
+    e1, e2 = _basis(n)
+    # --- circle k against cap j: f_kj(t) = u_k(t).n_j - h_j = m_kj + R_kj cos(t - phi_kj)
+    g = np.einsum("ckx,cjx->ckj", n, n)
+    A = rho[:, :, None] * np.einsum("ckx,cjx->ckj", e1, n)
+    B = rho[:, :, None] * np.einsum("ckx,cjx->ckj", e2, n)
+    R = np.hypot(A, B)
+    phi = np.arctan2(B, A)
+    m = h[:, :, None] * g - h[:, None, :]
+    pair = valid[:, :, None] & valid[:, None, :] & ~np.eye(K, dtype=bool)[None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cosarg = -m / R
+    crosses = pair & (R > 0) & (np.abs(cosarg) < 1.0)
+    ac = np.arccos(np.clip(cosarg, -1.0, 1.0))
+    two_pi = 2.0 * np.pi
+    t_a = np.mod(phi + ac, two_pi)
+    t_b = np.mod(phi - ac, two_pi)
+    pts = np.concatenate([np.where(crosses, t_a, np.inf), np.where(crosses, t_b, np.inf)], axis=2)  # (C,K,2K)
+    pts.sort(axis=2)
+    P = np.count_nonzero(np.isfinite(pts), axis=2)  # (C,K)
+    Q = max(int(P.max()), 1)  # most circles meet few others: drop the all-padding tail
+    pts = pts[:, :, :Q]
+    idx = np.arange(Q)
+    t1 = np.where(P[:, :, None] > 0, pts, 0.0)
+    nxt = np.where(idx[None, None, :] + 1 < P[:, :, None], idx + 1, 0)
+    t2 = np.take_along_axis(pts, np.broadcast_to(nxt, pts.shape), axis=2)
+    wrap = idx[None, None, :] + 1 >= P[:, :, None]
+    t2 = np.where(wrap, t2 + two_pi, t2)
+    full = P == 0
+    t1 = np.where(full[:, :, None], 0.0, t1)
+    t2 = np.where(full[:, :, None], two_pi, t2)
+    arc_ok = valid[:, :, None] & ((idx[None, None, :] < P[:, :, None]) | (full[:, :, None] & (idx == 0)))
+    t1 = np.where(arc_ok, t1, 0.0)
+    t2 = np.where(arc_ok, t2, 0.0)
+    # --- coverage of each arc by each other cap j.  f_j has no zero inside the arc (its
+    # crossings are split points), so the sign of f_j at the arc point of largest |f_j|
+    # (an end point, or the extremum of f_j if it lies inside the arc) decides robustly.
+    mm, AA, BB, RR, ph = m[:, :, None, :], A[:, :, None, :], B[:, :, None, :], R[:, :, None, :], phi[:, :, None, :]
+    c1, s1, c2, s2 = (np.cos(t1)[..., None], np.sin(t1)[..., None], np.cos(t2)[..., None], np.sin(t2)[..., None])
+    f1 = mm + AA * c1 + BB * s1
+    f2 = mm + AA * c2 + BB * s2
+    T1 = t1[..., None]
+    span = (t2 - t1)[..., None]
+    has_max = np.mod(ph - T1, two_pi) < span
+    has_min = np.mod(ph + np.pi - T1, two_pi) < span
+    fhi = np.maximum(f1, f2)
+    np.maximum(fhi, np.where(has_max, mm + RR, -np.inf), out=fhi)
+    flo = np.minimum(f1, f2)
+    np.minimum(flo, np.where(has_min, mm - RR, np.inf), out=flo)
+    covered = fhi + flo > 0  # the value of largest magnitude is positive
+    # coincident circles of equally oriented caps: the lower-ranked cap covers the other
+    coincident = (R <= 1e-14) & (np.abs(m) <= 1e-14) & (g > 0)
+    tie = coincident & (rank[:, None, :] < rank[:, :, None])
+    covered |= tie[:, :, None, :]
+    covered &= pair[:, :, None, :]
+    exposed = arc_ok & ~np.any(covered, axis=3)  # (C,K,Q)
+    # --- closed-form arc integrals, summed over each circle's exposed arcs
+    t1 = np.where(exposed, t1, 0.0)
+    t2 = np.where(exposed, t2, 0.0)
+    dt = t2 - t1
+    s1, s2, c1, c2 = np.sin(t1), np.sin(t2), np.cos(t1), np.cos(t2)
+    sin2 = np.sin(2 * t2) - np.sin(2 * t1)
+    sm = lambda x: x.sum(axis=2)  # noqa: E731
+    Dt = sm(dt)
+    Ic = sm(s2 - s1)
+    Is = sm(c1 - c2)
+    Icc = 0.5 * Dt + 0.25 * sm(sin2)
+    Iss = 0.5 * Dt - 0.25 * sm(sin2)
+    Ics = 0.5 * sm(s2 * s2 - s1 * s1)
+    Iccc = sm((s2 - s2**3 / 3.0) - (s1 - s1**3 / 3.0))
+    Isss = sm((-c2 + c2**3 / 3.0) - (-c1 + c1**3 / 3.0))
+    Iccs = -sm(c2**3 - c1**3) / 3.0
+    Icss = sm(s2**3 - s1**3) / 3.0
+    W1s = np.stack([Dt, Ic, Is], axis=-1)  # (C,K,3)
+    W2s = np.stack([np.stack([Dt, Ic, Is], -1), np.stack([Ic, Icc, Ics], -1), np.stack([Is, Ics, Iss], -1)], -2)
+    W3s = np.empty((C, K, 3, 3, 3))
+    vals = {
+        (0, 0, 0): Dt, (0, 0, 1): Ic, (0, 0, 2): Is, (0, 1, 1): Icc, (0, 1, 2): Ics,
+        (0, 2, 2): Iss, (1, 1, 1): Iccc, (1, 1, 2): Iccs, (1, 2, 2): Icss, (2, 2, 2): Isss,
+    }
+    for (p, q_, r_), v in vals.items():
+        for perm in {(p, q_, r_), (p, r_, q_), (q_, p, r_), (q_, r_, p), (r_, p, q_), (r_, q_, p)}:
+            W3s[..., perm[0], perm[1], perm[2]] = v
+    # vector coefficients of u(t) = U0 + U1 cos t + U2 sin t and nu = u' x u = N0 + N1 cos t + N2 sin t
+    U = np.stack([h[..., None] * n, rho[..., None] * e1, rho[..., None] * e2], axis=2)  # (C,K,3 basis,3 xyz)
+    N = np.stack([-(rho**2)[..., None] * n, (h * rho)[..., None] * e1, (h * rho)[..., None] * e2], axis=2)
+    J1 = np.einsum("ckp,ckpx->cx", W1s, N)
+    J2 = np.einsum("ckpq,ckpx,ckqy->cxy", W2s, N, U, optimize=True)
+    J3 = np.einsum("ckpqr,ckpx,ckqy,ckrz->cxyz", W3s, N, U, U, optimize=True)
+    # --- area of the union of caps, with the pole q far from every circle
+    poles = _poles()
+    qn = np.einsum("px,ckx->cpk", poles, n)  # (C,P,K)
+    alpha = np.arctan2(rho, h)  # angular radius of each cap
+    dist = np.abs(np.arccos(np.clip(-qn, -1.0, 1.0)) - alpha[:, None, :])
+    dist = np.where(valid[:, None, :], dist, np.inf)
+    best_pole = np.argmax(dist.min(axis=2), axis=1)
+    q = poles[best_pole]  # (C,3)
+    qn = np.einsum("cx,ckx->ck", q, n)
+    qe1 = np.einsum("cx,ckx->ck", q, e1)
+    qe2 = np.einsum("cx,ckx->ck", q, e2)
+    Dd = 1.0 + h * qn
+    Rr = rho * np.hypot(qe1, qe2)
+    kk = np.abs(h + qn) / (Dd + Rr)
+    sg = np.sign(h + qn)
+    dl = np.arctan2(qe2, qe1)
+
+    def G(t):
+        x = 0.5 * (t - dl[..., None])
+        sx, cx = np.sin(x), np.cos(x)
+        k = kk[..., None]
+        return x + np.arctan2((k - 1.0) * sx * cx, cx * cx + k * sx * sx)
+
+    arcA = -h[..., None] * dt + 2.0 * sg[..., None] * np.where(exposed, G(t2) - G(t1), 0.0)
+    in_U = np.any(valid & (-qn > h), axis=1)
+    area_U = arcA.sum(axis=(1, 2)) + _FOUR_PI * in_U
+    a = _FOUR_PI - area_U
+    m1 = 0.5 * J1
+    eye = np.eye(3)
+    m2 = a[:, None, None] / 3.0 * eye + (J2 + np.swapaxes(J2, 1, 2)) / 6.0
+    sym3 = J3 + np.transpose(J3, (0, 2, 1, 3)) + np.transpose(J3, (0, 2, 3, 1))
+    T = (
+        eye[None, :, :, None] * J1[:, None, None, :]
+        + eye[None, :, None, :] * J1[:, None, :, None]
+        + eye[None, None, :, :] * J1[:, :, None, None]
+    )
+    m3 = (sym3 + T) / 12.0
+    return a, m1, m2, m3
+
+
+def _volume_moments_from_surface(c, r, a, m1, m2, m3):
+    """Per-sphere V, S, Q contributions (divergence theorem) from unit-sphere moments of E."""
+    cm1 = np.einsum("sx,sx->s", c, m1)
+    base = r * a + cm1
+    r2 = r * r
+    V = r2 / 3.0 * base
+    m2c = np.einsum("sxy,sy->sx", m2, c)
+    S = (r2 / 4.0)[:, None] * (c * base[:, None] + r2[:, None] * m1 + r[:, None] * m2c)
+    m3c = np.einsum("sxyz,sz->sxy", m3, c)
+    cc = c[:, :, None] * c[:, None, :]
+    cm = c[:, :, None] * m1[:, None, :]
+    cq = c[:, :, None] * m2c[:, None, :]
+    Q = (r2 / 5.0)[:, None, None] * (
+        cc * base[:, None, None]
+        + r2[:, None, None] * (cm + np.swapaxes(cm, 1, 2))
+        + r[:, None, None] * (cq + np.swapaxes(cq, 1, 2))
+        + (r2 * r)[:, None, None] * m2
+        + r2[:, None, None] * m3c
+    )
+    return V, S, Q
+
+
+def _grouped(owner, other, per_sphere_cost):
+    """Yield (C, K) row-index arrays of caps: C spheres with exactly K caps each, chunked in memory."""
+    order = np.lexsort((other, owner))
+    _, start, counts = np.unique(owner[order], return_index=True, return_counts=True)
+    for K in np.unique(counts):
+        grp = np.flatnonzero(counts == K)
+        per = max(1, _CHUNK_ELEMENTS // per_sphere_cost(int(K)))
+        for g0 in range(0, len(grp), per):
+            gs = grp[g0 : g0 + per]
+            yield order[start[gs][:, None] + np.arange(K)[None, :]]
+
+
+def _uncovered_caps(n, h, rho, rank):
+    """(C,K) bool: caps not contained in another cap of the same sphere (those change nothing).
+
+    Cap j lies in cap k iff angle(n_j, n_k) + alpha_j <= alpha_k; of two identical caps the
+    lower-ranked one is kept.
+    """
+    K = h.shape[1]
+    if K == 1:
+        return np.ones(h.shape, bool)
+    alpha = np.arctan2(rho, h)
+    cross = np.cross(n[:, :, None, :], n[:, None, :, :])
+    theta = np.arctan2(np.linalg.norm(cross, axis=-1), np.einsum("cjx,ckx->cjk", n, n))
+    inside = theta + alpha[:, :, None] <= alpha[:, None, :]  # [c, j, k]: cap j within cap k
+    same = inside & np.swapaxes(inside, 1, 2)
+    drop = inside & (~same | (rank[:, None, :] < rank[:, :, None]))
+    drop &= ~np.eye(K, dtype=bool)[None]
+    return ~np.any(drop, axis=2)
+
+
+def exact_moments(sph: Spheres):
+    """Per-clump volume V (M,), first moment S (M,3) and second moment Q (M,3,3) of each union."""
+    S_n = len(sph.radii)
+    M = sph.n_clumps
+    owner, other, n, h, rho, buried = _caps(sph)
+    # spheres untouched by any cap and not buried: whole balls
+    has_cap = np.zeros(S_n, bool)
+    has_cap[owner] = True
+    whole = ~has_cap & ~buried
+    V = np.zeros(M)
+    Sm = np.zeros((M, 3))
+    Qm = np.zeros((M, 3, 3))
+    if np.any(whole):
+        sub = np.flatnonzero(whole)
+        v = (4.0 / 3.0) * np.pi * sph.radii[sub] ** 3
+        c = sph.centers[sub]
+        cl = sph.clump[sub]
+        V += np.bincount(cl, weights=v, minlength=M)
+        for x in range(3):
+            Sm[:, x] += np.bincount(cl, weights=v * c[:, x], minlength=M)
+            for y in range(3):
+                w = v * c[:, x] * c[:, y] + (v * sph.radii[sub] ** 2 / 5.0 if x == y else 0.0)
+                Qm[:, x, y] += np.bincount(cl, weights=w, minlength=M)
+    if len(owner):
+        keep = np.zeros(len(owner), bool)
+        for rows in _grouped(owner, other, per_sphere_cost=lambda K: K * K + 8):
+            keep[rows] = _uncovered_caps(n[rows], h[rows], rho[rows], other[rows])
+        owner, other, n, h, rho = owner[keep], other[keep], n[keep], h[keep], rho[keep]
+        for rows in _grouped(owner, other, per_sphere_cost=lambda K: 2 * K * K * K + 64):
+            a, m1, m2, m3 = _sphere_surface_moments(n[rows], h[rows], rho[rows], other[rows])
+            ids = owner[rows[:, 0]]
+            v, s, q = _volume_moments_from_surface(sph.centers[ids], sph.radii[ids], a, m1, m2, m3)
+            cl = sph.clump[ids]
+            V += np.bincount(cl, weights=v, minlength=M)
+            for x in range(3):
+                Sm[:, x] += np.bincount(cl, weights=s[:, x], minlength=M)
+                for y in range(3):
+                    Qm[:, x, y] += np.bincount(cl, weights=q[:, x, y], minlength=M)
+    return V, Sm, Qm
