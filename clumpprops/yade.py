@@ -144,10 +144,11 @@ def correction_terms(centers, radii, densities, mass, com, inertia):
     densities: list of (N_m,) material densities (as YADE reads them);
     mass (M,), com (M, 3), inertia (M, 3, 3): the target (exact) properties.
 
-    Returns (mass_c (M,), pos_c (M, 3), moments_c (M, 3), axes_c (M, 3, 3) right-handed
-    columns) such that spheres + correction sum, the way ``Clump::updateProperties``
-    sums them, to the target.  All sums are taken about the target centre of mass,
-    so nothing is lost to cancellation however far the clump is from the origin.
+    Returns (mass_c (M,), offset_c (M, 3), moments_c (M, 3), axes_c (M, 3, 3) right-handed
+    columns): the correction sits at ``com + offset_c`` and spheres + correction sum, the
+    way ``Clump::updateProperties`` sums them, to the target.  All sums are taken about the
+    target centre of mass, so nothing is lost to cancellation however far the clump is from
+    the origin.
     """
     M = len(centers)
     counts = np.array([len(r) for r in radii])
@@ -182,7 +183,7 @@ def correction_terms(centers, radii, densities, mass, com, inertia):
     w, V = np.linalg.eigh(J)
     flip = np.linalg.det(V) < 0
     V[flip, :, 2] *= -1.0
-    return m_c, com + off, w, V
+    return m_c, off, w, V
 
 
 # --------------------------------------------------------------------------- reading the scene
@@ -293,6 +294,28 @@ def _make_correction(Y, material, mask, m, p, w, V):
 # --------------------------------------------------------------------------- building
 
 
+def _place(Y, bodies, positions):
+    for b, x in zip(bodies, positions):
+        b.state.pos = Y.Vector3(float(x[0]), float(x[1]), float(x[2]))
+
+
+def _restore(Y, clump, spheres, positions, corr, offset, origin):
+    """Move a clump built around the origin back to ``origin``; spheres to their exact positions.
+
+    ``Clump::updateProperties`` sums inertia about the WORLD origin and then subtracts
+    M (|c|^2 1 - c c^T): a clump at distance |c| from the origin loses about
+    eps (|c| / size)^2 of its inertia to cancellation (2e-10 for a 0.13 m dimer 30 m away).
+    So the clump is built with its member spheres shifted by -origin (origin = the exact
+    centre of mass), where the sums are exact to eps, then translated back: member offsets
+    and orientations relative to the clump are translation-invariant, so they stay valid.
+    The spheres get back their original coordinates bit for bit.
+    """
+    c = clump.state.pos
+    clump.state.pos = Y.Vector3(float(origin[0]) + float(c[0]), float(origin[1]) + float(c[1]), float(origin[2]) + float(c[2]))
+    _place(Y, spheres, positions)
+    _place(Y, [corr], [origin + offset])
+
+
 def _check_new_spheres(k, spheres, seen):
     Y = _Y.load()
     label = f"clump {k} of the input"
@@ -344,11 +367,14 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
         mass, com, inertia = _batch_properties(xs, rs, rhos, method)
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
-    m_c, p_c, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
+    m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
     out = []
     for k, (spheres, _) in enumerate(checked):
-        corr = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], p_c[k], w_c[k], V_c[k])
+        o = com[k]
+        _place(Y, spheres, xs[k] - o)  # build near the origin: see _restore
+        corr = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], off[k], w_c[k], V_c[k])
         cid, mids = Y.O.bodies.appendClumped(list(spheres) + [corr], discretization=0)
+        _restore(Y, Y.O.bodies[cid], [Y.O.bodies[i] for i in mids[: len(spheres)]], xs[k], Y.O.bodies[mids[-1]], off[k], o)
         out.append((cid, list(mids[: len(spheres)])))
     return out
 
@@ -426,12 +452,14 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
         mass, com, inertia = _batch_properties(xs, rs, rhos, method)
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
-    m_c, p_c, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
+    m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
     # ---- from here on the scene is modified
     out = []
     for k, (cb, spheres, corr, _) in enumerate(plan):
         c_old, v_old, w_old = _velocity_field(cb)
-        new = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], p_c[k], w_c[k], V_c[k])
+        o = com[k]
+        _place(Y, spheres, xs[k] - o)  # update around the origin, then move back (see _restore)
+        new = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], off[k], w_c[k], V_c[k])
         if corr is None:
             (corr_id,) = Y.O.bodies.append([new])
             Y.O.bodies.addToClump([corr_id], cb.id, discretization=0)
@@ -442,6 +470,7 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
             st.mass, st.pos, st.inertia, st.ori = ns.mass, ns.pos, ns.inertia, ns.ori
             corr.bounded = False
             Y.O.bodies.addToClump([corr_id], cb.id, discretization=0)
+        _restore(Y, cb, spheres, xs[k], Y.O.bodies[corr_id], off[k], o)
         # updateProperties zeroes the clump's velocities: restore the rigid-body velocity field
         if np.any(v_old) or np.any(w_old):
             c_new = _vec(cb.state.pos)

@@ -113,12 +113,28 @@ def test_random_clumps_exact_state_positions_persistence(scene, tmp_path, seed):
     assert cy.correction_id(cid) == corr
 
 
-def test_far_from_origin(scene):
+@pytest.mark.parametrize("origin", [(5.0, -3.0, 2.0), (100.0, -50.0, 30.0)])
+def test_far_from_origin(scene, origin):
+    """YADE sums inertia about the world origin (cancellation ~ eps (|x| / size)^2); the adapter
+    builds around the exact COM and moves the clump back, so it stays exact far away too."""
     rng = np.random.default_rng(42)
-    c, r = random_clump(rng, 8, origin=(5.0, -3.0, 2.0))
-    cid, _ = cy.append_clump(make_spheres(c, r))
-    # YADE sums inertia about the world origin: round-off grows like (|x| / size)^2 * eps
-    assert_state_matches(O.bodies[cid].state, clumpprops.mass_properties(c, r, PAPER_RHO), rtol=1e-12)
+    c, r = random_clump(rng, 8, origin=origin)
+    mp = clumpprops.mass_properties(c, r, PAPER_RHO)
+    cid, mids = cy.append_clump(make_spheres(c, r))
+    assert_state_matches(O.bodies[cid].state, mp, rtol=1e-12)
+    for i, m in enumerate(mids):
+        assert np.array_equal(vec(O.bodies[m].state.pos), c[i])
+    c2, r2 = random_clump(rng, 6, origin=np.add(origin, 1.0))
+    yid, ymids = O.bodies.appendClumped(make_spheres(c2, r2))
+    cy.correct_clump(yid)
+    assert_state_matches(O.bodies[yid].state, clumpprops.mass_properties(c2, r2, PAPER_RHO), rtol=1e-12)
+    for i, m in enumerate(ymids):
+        assert np.array_equal(vec(O.bodies[m].state.pos), c2[i])
+    # YADE's own update keeps the correction but uses its world-origin sums: eps (|c|/size)^2
+    O.bodies.updateClumpProperties(discretization=0)
+    assert_state_matches(O.bodies[cid].state, mp, rtol=max(1e-12, 1e-14 * (np.linalg.norm(origin) / 0.1) ** 2))
+    cy.correct_all_clumps()  # back to round-off
+    assert_state_matches(O.bodies[cid].state, mp, rtol=1e-12)
 
 
 # ---------------------------------------------------------------- other ways to build clumps
