@@ -127,8 +127,8 @@ def normalize(centers, radii) -> Spheres:
         c3 = c_all.reshape(M, N, 3)
         first = c3[:, 0, :]
         w = r3.reshape(M, N)
-        w = w / w.sum(axis=1, keepdims=True)
-        origin = first + np.einsum("mn,mnx->mx", w, c3 - first[:, None, :])
+        w = w / _rowsum(w)[:, None]
+        origin = first + _rowsum(w[:, :, None] * (c3 - first[:, None, :]))
         rel = (c3 - origin[:, None, :]).reshape(-1, 3)
         clump = np.repeat(np.arange(M), N)
         local = np.tile(np.arange(N), M)
@@ -154,10 +154,20 @@ def normalize(centers, radii) -> Spheres:
     )
 
 
+def _rowsum(x):
+    """x (M, N, ...) summed over axis 1; explicit adds for small N (numpy's small-axis sum is slow)."""
+    if x.shape[1] > 16:
+        return x.sum(axis=1)
+    acc = x[:, 0].copy()
+    for k in range(1, x.shape[1]):
+        acc += x[:, k]
+    return acc
+
+
 def segment_sum(x, sph: Spheres):
     """Sum per-sphere values x (S, ...) over each clump -> (M, ...)."""
     if sph.regular:
-        return x.reshape((sph.n_clumps, sph.regular) + x.shape[1:]).sum(axis=1)
+        return _rowsum(x.reshape((sph.n_clumps, sph.regular) + x.shape[1:]))
     return np.add.reduceat(x, sph.starts, axis=0)
 
 

@@ -89,6 +89,18 @@ def _caps(sph: Spheres):
     return owner, other, n, h, rho, buried
 
 
+_EINSUM_PATHS: dict = {}
+
+
+def _einsum(subscripts, *operands):
+    """np.einsum with the contraction order computed once per subscripts (it does not depend on sizes)."""
+    path = _EINSUM_PATHS.get(subscripts)
+    if path is None:
+        probe = [np.ones(tuple(4 if ch in "ck" else 3 for ch in sub)) for sub in subscripts.split("->")[0].split(",")]
+        path = _EINSUM_PATHS[subscripts] = np.einsum_path(subscripts, *probe, optimize="greedy")[0]
+    return np.einsum(subscripts, *operands, optimize=path)
+
+
 def _basis(n):
     """Orthonormal e1, e2 with (e1, e2, n) right-handed; n (..., 3) unit."""
     ax = np.where((np.abs(n[..., 0]) < 0.9)[..., None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
@@ -192,8 +204,8 @@ def _sphere_surface_moments(n, h, rho, rank):
     U = np.stack([h[..., None] * n, rho[..., None] * e1, rho[..., None] * e2], axis=2)  # (C,K,3 basis,3 xyz)
     N = np.stack([-(rho**2)[..., None] * n, (h * rho)[..., None] * e1, (h * rho)[..., None] * e2], axis=2)
     J1 = np.einsum("ckp,ckpx->cx", W1s, N)
-    J2 = np.einsum("ckpq,ckpx,ckqy->cxy", W2s, N, U, optimize=True)
-    J3 = np.einsum("ckpqr,ckpx,ckqy,ckrz->cxyz", W3s, N, U, U, optimize=True)
+    J2 = _einsum("ckpq,ckpx,ckqy->cxy", W2s, N, U)
+    J3 = _einsum("ckpqr,ckpx,ckqy,ckrz->cxyz", W3s, N, U, U)
     # --- area of the union of caps, with the pole q far from every circle
     poles = _poles()
     qn = np.einsum("px,ckx->cpk", poles, n)  # (C,P,K)
