@@ -362,3 +362,26 @@ def test_inspection_helpers(scene):
     yid, _ = O.bodies.appendClumped(make_spheres(*paper_dimer()))
     assert cy.correction_id(yid) is None
     assert cy.clump_errors(yid)["mass"] == pytest.approx(0.185, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "centers, radii",
+    [
+        ([[0.1, 0.2, 0.3]], [0.05]),  # one sphere
+        ([[0, 0, 0], [0.1, 0, 0]], [0.05, 0.05]),  # touching: no overlap, correction is round-off only
+        ([[0, 0, 0], [0.3, 0.1, 0], [0, 0.2, 0.2]], [0.05, 0.07, 0.03]),  # apart
+        ([[0, 0, 0], [1e-9, 0, 0]], [0.05, 0.05]),  # nearly coincident
+        ([[0, 0, 0], [0.0, 0, 0.02]], [0.05, 0.01]),  # one sphere inside the other
+    ],
+)
+def test_degenerate_clumps(scene, centers, radii):
+    c, r = np.array(centers, float), np.array(radii, float)
+    mp = clumpprops.mass_properties(c, r, PAPER_RHO)
+    cid, mids = cy.append_clump(make_spheres(c, r))
+    assert_state_matches(O.bodies[cid].state, mp)
+    O.bodies.updateClumpProperties(discretization=0)
+    assert_state_matches(O.bodies[cid].state, mp)
+    corr = O.bodies[cy.correction_id(cid)]
+    # the correction stays inside the clump (it is the excess of the summed over the union)
+    reach = np.max(np.linalg.norm(c - mp.center_of_mass, axis=1) + r)
+    assert np.linalg.norm(vec(corr.state.pos) - mp.center_of_mass) <= reach * (1 + 1e-12)
