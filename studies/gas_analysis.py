@@ -1,0 +1,266 @@
+"""Analysis of the granular-gas runs: MSD, diffusion coefficients, the paper's ratio, energies.
+
+Reads ``<out>/runs/*.json|npz`` (only the runs of the given configuration and the current
+code version), writes tidy CSVs and ``params.json`` into ``<out>``:
+
+summary.csv            case, n_seeds, diffusion_coefficient, ci_low, ci_high, max_energy_drift
+                       (paired protocol, one row per case; D in m^2/s, 95 % t-interval over seeds)
+protocols.csv          the same for every (case, protocol) plus the hard-particle prediction of the
+                       equal-energy D from the paired one
+runs.csv               every run: flags, drifts, per-seed D; failed runs are listed, never used
+msd.csv                case, protocol, lag_s, msd_mean, msd_stderr, n_seeds (log-spaced lags)
+ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
+                       (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact), paired by seed
+ratio_D.csv            the same ratio for the diffusion coefficients
+energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
+energy_equal_energy.csv  the same for the equal-energy runs
+energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
+
+MSD: time-origin averaged (FFT, :mod:`studies.msd`) over frames with t >= t_eq (the initial
+state has all energy translational; rotation equilibrates in ~25 s).  D per seed: slope / 6 of
+a least-squares line through MSD(lag) for lag in [fit_lo, fit_hi]; the case's D is the mean
+over seeds with a Student-t 95 % interval (seeds are independent; particles within a run are not).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import time
+
+import numpy as np
+
+from . import gas_model as gm
+from .granular_gas import run_name, run_specs
+from .msd import msd_fft
+
+ENERGY_STRIDE_S = 1.0      # energy.csv sampling (s); the runs record every rec_interval
+
+
+def t_interval(x, conf=0.95):
+    """(mean, low, high, stderr, n) of a sample with a Student-t interval."""
+    from scipy import stats
+
+    x = np.asarray(x, float)
+    n = len(x)
+    if n == 0:
+        return (np.nan,) * 4 + (0,)
+    m = float(np.mean(x))
+    if n < 2:
+        return m, np.nan, np.nan, np.nan, n
+    se = float(np.std(x, ddof=1) / np.sqrt(n))
+    h = float(stats.t.ppf(0.5 + conf / 2, n - 1)) * se
+    return m, m - h, m + h, se, n
+
+
+def load_run(runs_dir, name):
+    with open(os.path.join(runs_dir, name + ".json")) as f:
+        res = json.load(f)
+    return res
+
+
+def run_msd(runs_dir, name, t_eq):
+    """(lags_s, msd) of one run, cached next to the run (keyed by t_eq)."""
+    cache = os.path.join(runs_dir, f"{name}.msd-teq{t_eq:g}.npz")
+    src = os.path.join(runs_dir, name + ".npz")
+    if os.path.exists(cache) and os.path.getmtime(cache) >= os.path.getmtime(src):
+        z = np.load(cache)
+        return z["lag"], z["msd"]
+    z = np.load(src)
+    t = z["t"]
+    keep = t >= t_eq - 1e-9
+    x = z["disp"][keep]
+    msd = msd_fft(x)
+    lag = t[keep] - t[keep][0]
+    n = len(lag) // 2 + 1                     # lags up to half the window are well averaged
+    lag, msd = lag[:n], msd[:n]
+    tmp = cache + f".tmp{os.getpid()}.npz"
+    np.savez(tmp, lag=lag, msd=msd)
+    os.replace(tmp, cache)
+    return lag, msd
+
+
+def fit_d(lag, msd, lo, hi):
+    sel = (lag >= lo) & (lag <= hi)
+    if sel.sum() < 3:
+        raise ValueError(f"fit window [{lo}, {hi}] s has {sel.sum()} lags (max lag {lag[-1]:.1f} s)")
+    slope = np.polyfit(lag[sel], msd[sel], 1)[0]
+    return slope / 6.0
+
+
+def _write_csv(path, header, rows):
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for r in rows:
+            w.writerow([f"{v:.10g}" if isinstance(v, float) else v for v in r])
+    os.replace(tmp, path)
+
+
+def label(case, protocol):
+    return case if protocol == "paired" else f"{case}@{protocol}"
+
+
+def analyze(cfg, out, wall_sweep_s=None, log=print):
+    t0 = time.time()
+    runs_dir = os.path.join(out, "runs")
+    specs = run_specs(cfg)
+    runs, missing = [], []
+    for s in specs:
+        name = run_name(s)
+        if not os.path.exists(os.path.join(runs_dir, name + ".json")):
+            missing.append(name)
+            continue
+        runs.append((s, name, load_run(runs_dir, name)))
+    if missing:
+        log(f"[analyze] {len(missing)} runs not finished (analysing the rest): {', '.join(missing[:4])}...")
+    good = [(s, n, r) for s, n, r in runs if r.get("ok")]
+    bad = [(s, n, r) for s, n, r in runs if not r.get("ok")]
+    for s, n, r in bad:
+        log(f"[analyze] EXCLUDED {n}: {'; '.join(r.get('fail_reasons', ['?']))}")
+
+    # ---- MSD and D per run ----
+    per = {}          # (case, protocol) -> {seed: (lag, msd, D, run)}
+    for s, n, r in good:
+        lag, msd = run_msd(runs_dir, n, cfg["t_eq"])
+        d = fit_d(lag, msd, cfg["fit_lo"], cfg["fit_hi"])
+        per.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = (lag, msd, d, r)
+
+    rows = []
+    for s, n, r in runs:
+        d = per.get((s["case"], s["protocol"]), {}).get(s["seed"], (None, None, np.nan))[2]
+        rows.append([s["case"], s["protocol"], s["seed"], n, bool(r.get("ok")), "; ".join(r.get("fail_reasons", [])),
+                     r.get("energy_drift", np.nan), r.get("momentum_drift", np.nan), d,
+                     r.get("steps_per_s", np.nan), r.get("wall_run_s", np.nan), r.get("builder", ""),
+                     r.get("git_commit", ""), r.get("yade_version", "")])
+    _write_csv(os.path.join(out, "runs.csv"),
+               ["case", "protocol", "seed", "run", "ok", "fail_reasons", "energy_drift", "momentum_drift",
+                "diffusion_coefficient", "steps_per_s", "wall_run_s", "builder", "git_commit", "yade_version"],
+               rows)
+
+    # ---- D per case with a t-interval ----
+    masses = {c: gm.case_properties(c)["mass"] for c in gm.CASES}
+    m_exact = masses["exact"]
+    stats_d = {}
+    prow = []
+    for (case, prot), seeds in sorted(per.items(), key=lambda kv: (kv[0][1] != "paired", list(gm.CASES).index(kv[0][0]))):
+        ds = [v[2] for v in seeds.values()]
+        mean, lo, hi, se, n = t_interval(ds)
+        drift = max(v[3]["energy_drift"] for v in seeds.values())
+        stats_d[(case, prot)] = (mean, lo, hi, se, n, drift)
+        pred = np.nan
+        if prot == "equal_energy" and (case, "paired") in per:
+            # hard-particle scaling: velocities x sqrt(m_exact/m) -> D x sqrt(m_exact/m)
+            common = sorted(set(seeds) & set(per[(case, "paired")]))
+            pred = float(np.mean([per[(case, "paired")][k][2] for k in common]) * np.sqrt(m_exact / masses[case]))
+        prow.append([case, prot, n, mean, lo, hi, se, drift, pred])
+    _write_csv(os.path.join(out, "summary.csv"),
+               ["case", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "max_energy_drift"],
+               [[r[0], r[2], r[3], r[4], r[5], r[7]] for r in prow if r[1] == "paired"])
+    _write_csv(os.path.join(out, "protocols.csv"),
+               ["case", "protocol", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "stderr",
+                "max_energy_drift", "hard_particle_prediction_from_paired"], prow)
+
+    # ---- MSD tables (log-spaced lags) ----
+    mrows = []
+    for (case, prot), seeds in per.items():
+        lag = min((v[0] for v in seeds.values()), key=len)
+        M = np.array([v[1][:len(lag)] for v in seeds.values()])
+        idx = np.unique(np.concatenate([np.round(np.geomspace(1, len(lag) - 1, 160)).astype(int), [len(lag) - 1]]))
+        mean = M.mean(0)
+        se = M.std(0, ddof=1) / np.sqrt(len(M)) if len(M) > 1 else np.full(len(lag), np.nan)
+        for i in idx:
+            mrows.append([case, prot, float(lag[i]), float(mean[i]), float(se[i]), len(M)])
+    _write_csv(os.path.join(out, "msd.csv"), ["case", "protocol", "lag_s", "msd_mean", "msd_stderr", "n_seeds"], mrows)
+
+    # ---- the paper's ratio, paired by seed ----
+    rrows, rdrows = [], []
+    ex, sp = per.get(("exact", "paired"), {}), per.get(("spheres", "paired"), {})
+    for (case, prot), seeds in per.items():
+        if case in ("exact", "spheres"):
+            continue
+        common = sorted(set(seeds) & set(ex) & set(sp))
+        if not common:
+            continue
+        n = min(len(seeds[k][0]) for k in common)
+        n = min([n] + [len(ex[k][0]) for k in common] + [len(sp[k][0]) for k in common])
+        lag = ex[common[0]][0][:n]
+        R = np.array([(seeds[k][1][:n] - ex[k][1][:n]) / (sp[k][1][:n] - ex[k][1][:n]) for k in common])
+        idx = np.unique(np.round(np.geomspace(1, n - 1, 120)).astype(int))
+        for i in idx:
+            m, lo, hi, se, nn = t_interval(R[:, i])
+            rrows.append([label(case, prot), float(lag[i]), m, lo, hi, nn])
+        rd = [(seeds[k][2] - ex[k][2]) / (sp[k][2] - ex[k][2]) for k in common]
+        m, lo, hi, se, nn = t_interval(rd)
+        rdrows.append([label(case, prot), nn, m, lo, hi, se])
+    _write_csv(os.path.join(out, "ratio.csv"), ["case", "lag_s", "ratio", "ci_low", "ci_high", "n_seeds"], rrows)
+    _write_csv(os.path.join(out, "ratio_D.csv"), ["case", "n_seeds", "ratio", "ci_low", "ci_high", "stderr"], rdrows)
+
+    # ---- energies ----
+    stride = None
+    erows = {"paired": [], "equal_energy": []}
+    part = {}
+    for s, n, r in good:
+        z = np.load(os.path.join(runs_dir, n + ".npz"))
+        t = z["t"]
+        if stride is None:
+            stride = max(1, int(round(ENERGY_STRIDE_S / (t[1] - t[0]))))
+        sl = slice(0, None, stride)
+        for row in zip(t[sl], z["e_trans"][sl], z["e_rot"][sl], z["e_elastic"][sl]):
+            erows[s["protocol"]].append([s["case"], s["seed"]] + [float(v) for v in row])
+        etot = z["e_trans"] + z["e_rot"] + z["e_elastic"]
+        part.setdefault((s["case"], s["protocol"]), []).append((t[sl], (z["e_trans"] / etot)[sl], (z["e_rot"] / etot)[sl]))
+    hdr = ["case", "seed", "t", "e_trans", "e_rot", "e_elastic"]
+    _write_csv(os.path.join(out, "energy.csv"), hdr, erows["paired"])
+    if erows["equal_energy"]:
+        _write_csv(os.path.join(out, "energy_equal_energy.csv"), hdr, erows["equal_energy"])
+    prow2 = []
+    for (case, prot), lst in part.items():
+        n = min(len(x[0]) for x in lst)
+        tr = np.array([x[1][:n] for x in lst])
+        ro = np.array([x[2][:n] for x in lst])
+        k = len(lst)
+        for i in range(n):
+            prow2.append([case, prot, float(lst[0][0][i]), float(tr[:, i].mean()),
+                          float(tr[:, i].std(ddof=1) / np.sqrt(k)) if k > 1 else np.nan,
+                          float(ro[:, i].mean()), float(ro[:, i].std(ddof=1) / np.sqrt(k)) if k > 1 else np.nan, k])
+    _write_csv(os.path.join(out, "energy_partition.csv"),
+               ["case", "protocol", "t", "trans_fraction", "trans_fraction_stderr", "rot_fraction",
+                "rot_fraction_stderr", "n_seeds"], prow2)
+
+    # ---- params.json ----
+    any_run = good[0][2] if good else (runs[0][2] if runs else {})
+    params = {
+        "scale": cfg["scale"],
+        "command": f".venv/bin/python -m studies.granular_gas run --scale {cfg['scale']}",
+        "n_particles": cfg["n_particles"],
+        "box_length": gm.box_length(cfg["n_particles"], cfg["volume_fraction"]),
+        "volume_fraction": cfg["volume_fraction"],
+        "kinetic_energy_total": cfg["n_particles"] * cfg["energy_per_particle"],
+        "t_end": cfg["t_end"], "rec_interval": cfg["rec_interval"], "dt": any_run.get("dt"),
+        "dt_factor": cfg["dt_factor"], "energy_tol": cfg["energy_tol"], "momentum_tol": cfg["momentum_tol"],
+        "groups": cfg["groups"], "t_eq": cfg["t_eq"], "fit_window_s": [cfg["fit_lo"], cfg["fit_hi"]],
+        "case_properties": {c: gm.case_properties(c) for c in gm.CASES},
+        "code_version": gm.code_version(), "yade_version": any_run.get("yade_version"),
+        "git_commits": sorted({r.get("git_commit", "") for _, _, r in runs}),
+        "n_runs": len(runs), "n_runs_ok": len(good), "n_runs_excluded": len(bad), "n_runs_missing": len(missing),
+        "wall_run_s_total": float(sum(r.get("wall_run_s", 0) for _, _, r in runs)),
+        "wall_sweep_s": wall_sweep_s,
+    }
+    if wall_sweep_s is None and os.path.exists(os.path.join(out, "params.json")):
+        with open(os.path.join(out, "params.json")) as f:
+            params["wall_sweep_s"] = json.load(f).get("wall_sweep_s")
+    params["wall_analysis_s"] = time.time() - t0
+    tmp = os.path.join(out, f"params.json.tmp{os.getpid()}")
+    with open(tmp, "w") as f:
+        json.dump(params, f, indent=1, default=float)
+    os.replace(tmp, os.path.join(out, "params.json"))
+    log(f"[analyze] {len(good)} runs used, {len(bad)} excluded, {len(missing)} missing; "
+        f"{time.time() - t0:.0f} s; tables in {out}")
+    for r in prow:
+        log(f"[analyze]   D[{label(r[0], r[1])}] = {r[3]:.5g} m^2/s  95% CI [{r[4]:.5g}, {r[5]:.5g}]  "
+            f"(n={r[2]}, max energy drift {r[7]:.2g})")
+    for r in rdrows:
+        log(f"[analyze]   ratio_D[{r[0]}] = {r[2]:.3f}  95% CI [{r[3]:.3f}, {r[4]:.3f}] (n={r[1]})")
+    return params

@@ -1,0 +1,158 @@
+"""Figures of the granular-gas study, drawn from the CSV tables only (no run files needed).
+
+fig2_msd.png          the paper's Fig. 2: log-log MSD of every case (+ relative difference panel)
+ratio.png             (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact) over lag, 95 % CI
+energy_partition.png  translational / rotational share of the total energy over time
+diffusion.png         D per case and protocol with 95 % CI
+"""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+STYLE = {
+    "exact": dict(color="k", ls="-", label="exact (clumpprops)"),
+    "uncorrected": dict(color="tab:red", ls="--", label="uncorrected (summed spheres)"),
+    "spheres": dict(color="tab:blue", ls=":", label="spheres, m = m_exact"),
+    "mass_only": dict(color="tab:green", ls="-.", label="exact mass only"),
+    "inertia_only": dict(color="tab:orange", ls=(0, (5, 1, 1, 1, 1, 1)), label="exact inertia only"),
+}
+
+
+def _read(path):
+    import pandas as pd
+
+    return pd.read_csv(path) if os.path.exists(path) else None
+
+
+def _style(case, prot="paired"):
+    st = dict(STYLE.get(case, dict(color="gray", ls="-", label=case)))
+    if prot != "paired":
+        st["label"] += f" [{prot}]"
+        st["alpha"] = 0.7
+        st["lw"] = 1.0
+    return st
+
+
+def plot_all(out, log=print):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    made = []
+    with open(os.path.join(out, "params.json")) as f:
+        params = json.load(f)
+    sub = (f"{params['n_particles']} particles, box {params['box_length']:.3f} m, "
+           f"{params['t_end']:g} s per run, t_eq = {params['t_eq']:g} s")
+
+    msd = _read(os.path.join(out, "msd.csv"))
+    if msd is not None and len(msd):
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5))
+        ex = msd[(msd.case == "exact") & (msd.protocol == "paired")].set_index("lag_s")
+        for (case, prot), g in msd.groupby(["case", "protocol"], sort=False):
+            st = _style(case, prot)
+            a1.plot(g.lag_s, g.msd_mean, **st)
+            a1.fill_between(g.lag_s, g.msd_mean - 1.96 * g.msd_stderr, g.msd_mean + 1.96 * g.msd_stderr,
+                            color=st["color"], alpha=0.15, lw=0)
+            if len(ex) and case != "exact":
+                e = ex.reindex(g.lag_s.values)
+                rel = g.msd_mean.values / e.msd_mean.values - 1
+                err = np.sqrt((g.msd_stderr.values / e.msd_mean.values) ** 2
+                              + (g.msd_mean.values * e.msd_stderr.values / e.msd_mean.values ** 2) ** 2)
+                a2.plot(g.lag_s, 100 * rel, **st)
+                a2.fill_between(g.lag_s, 100 * (rel - 1.96 * err), 100 * (rel + 1.96 * err),
+                                color=st["color"], alpha=0.15, lw=0)
+        lag = np.geomspace(msd.lag_s.min(), msd.lag_s.max(), 20)
+        a1.set(xscale="log", yscale="log", xlabel="lag t (s)", ylabel="MSD (m$^2$)",
+               title="Fig. 2 reproduced: mean-square displacement")
+        a1.legend(fontsize=8)
+        a1.grid(True, which="both", alpha=0.3)
+        a2.axhline(0, color="k", lw=0.8)
+        a2.set(xscale="log", xlabel="lag t (s)", ylabel="MSD / MSD$_{exact}$ - 1 (%)",
+               title="difference from the exact clumps (bands: 95 %)")
+        a2.set_ylim(-15, None)
+        a2.grid(True, which="both", alpha=0.3)
+        fig.suptitle(sub, fontsize=9)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "fig2_msd.png"), dpi=120)
+        plt.close(fig)
+        made.append("fig2_msd.png")
+
+    ratio = _read(os.path.join(out, "ratio.csv"))
+    rd = _read(os.path.join(out, "ratio_D.csv"))
+    if ratio is not None and len(ratio):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for case, g in ratio.groupby("case", sort=False):
+            base = case.split("@")[0]
+            st = _style(base, case.split("@")[1] if "@" in case else "paired")
+            ax.plot(g.lag_s, g.ratio, **st)
+            ax.fill_between(g.lag_s, g.ci_low, g.ci_high, color=st["color"], alpha=0.15, lw=0)
+            if rd is not None and (rd.case == case).any():
+                r = rd[rd.case == case].iloc[0]
+                ax.errorbar([g.lag_s.max() * 1.25], [r.ratio], yerr=[[r.ratio - r.ci_low], [r.ci_high - r.ratio]],
+                            fmt="o", color=st["color"], capsize=3, ms=4)
+        ax.axhline(0.10, color="gray", lw=1, ls="--")
+        ax.text(ratio.lag_s.min(), 0.105, "paper: about 0.10", color="gray", fontsize=8)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set(xscale="log", xlabel="lag t (s)  (dots at right: same ratio for D)",
+               ylabel="(MSD$_{case}$ - MSD$_{exact}$) / (MSD$_{spheres}$ - MSD$_{exact}$)",
+               title="the paper's ratio, paired by seed, 95 % t-interval")
+        ax.set_ylim(-0.6, 0.6)
+        ax.legend(fontsize=7)
+        ax.grid(True, which="both", alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "ratio.png"), dpi=120)
+        plt.close(fig)
+        made.append("ratio.png")
+
+    part = _read(os.path.join(out, "energy_partition.csv"))
+    if part is not None and len(part):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for (case, prot), g in part.groupby(["case", "protocol"], sort=False):
+            st = _style(case, prot)
+            ax.plot(g.t, g.trans_fraction, **st)
+            if case != "spheres":
+                st2 = dict(st, label=None, lw=0.8)
+                ax.plot(g.t, g.rot_fraction, **st2)
+        ax.axhline(0.6, color="gray", lw=0.8, ls="--")
+        ax.axhline(0.4, color="gray", lw=0.8, ls="--")
+        ax.text(part.t.max() * 0.6, 0.62, "equipartition, 3 + 2 dof: 3/5", fontsize=8, color="gray")
+        ax.text(part.t.max() * 0.6, 0.36, "rotational: 2/5", fontsize=8, color="gray")
+        ax.set(xscale="symlog", xlabel="t (s)", ylabel="share of total energy",
+               title="energy partition (upper: translational, lower: rotational)")
+        ax.set_ylim(-0.02, 1.02)
+        ax.legend(fontsize=7, loc="center right")
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "energy_partition.png"), dpi=120)
+        plt.close(fig)
+        made.append("energy_partition.png")
+
+    prot = _read(os.path.join(out, "protocols.csv"))
+    if prot is not None and len(prot):
+        fig, ax = plt.subplots(figsize=(7, 4))
+        for i, r in enumerate(prot.itertuples()):
+            st = _style(r.case, r.protocol)
+            lo = r.diffusion_coefficient - r.ci_low if r.ci_low == r.ci_low else 0
+            hi = r.ci_high - r.diffusion_coefficient if r.ci_high == r.ci_high else 0
+            ax.errorbar([r.diffusion_coefficient], [i], xerr=[[lo], [hi]], fmt="o", color=st["color"], capsize=4)
+            if r.protocol != "paired" and r.hard_particle_prediction_from_paired == r.hard_particle_prediction_from_paired:
+                ax.plot([r.hard_particle_prediction_from_paired], [i], "x", color="k", ms=8,
+                        label="hard-particle scaling of paired D" if "x" not in [h.get_marker() for h in ax.lines[:-1]] else None)
+        ax.set_yticks(range(len(prot)))
+        ax.set_yticklabels([f"{r.case} [{r.protocol}] n={r.n_seeds}" for r in prot.itertuples()], fontsize=8)
+        ax.set(xlabel="self-diffusion coefficient D (m$^2$/s), 95 % CI over seeds",
+               title="long-time diffusion coefficient")
+        ax.grid(True, axis="x", alpha=0.3)
+        h, l = ax.get_legend_handles_labels()
+        if h:
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "diffusion.png"), dpi=120)
+        plt.close(fig)
+        made.append("diffusion.png")
+    log(f"[plot] wrote {', '.join(made)} in {out}")
+    return made
