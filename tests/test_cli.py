@@ -1,0 +1,315 @@
+"""``python -m clumpprops FILE``: run as a subprocess, numbers checked against the library.
+
+The reader (clumpprops.textclumps) is also tested directly against the grouping
+rules of YADE's ``ymport.textClumps`` (consecutive equal ids form a clump).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import clumpprops
+from clumpprops import mass_properties
+from clumpprops.textclumps import TextClumpsError, parse_text_clumps, read_text_clumps
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "clumps.txt"
+PY = sys.executable
+
+
+def run(*args, stdin=None, cwd=ROOT):
+    return subprocess.run(
+        [PY, "-m", "clumpprops", *map(str, args)],
+        input=stdin,
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=120,
+    )
+
+
+def _method_works(method):
+    try:
+        mass_properties([[0, 0, 0], [1, 0, 0]], [1.0, 0.8], method=method)
+    except (ImportError, NotImplementedError):
+        return False
+    return True
+
+
+def _m(name):
+    return pytest.param(name, marks=pytest.mark.skipif(not _method_works(name), reason=f"method {name!r} not available yet"))
+
+
+DIMER = """#format x_y_z_r_clumpId
+# the paper's dimer, d = 0.1333 m, D = d/2
+0 0 -0.033325 0.06665 0
+0 0 0.033325 0.06665 0
+"""
+
+
+@pytest.fixture
+def tmpfile(tmp_path):
+    def make(text, name="clumps.txt"):
+        p = tmp_path / name
+        p.write_text(text)
+        return p
+
+    return make
+
+
+# ---------------------------------------------------------------- reader
+def test_reader_mirrors_yade_grouping():
+    text = """#format x_y_z_r_clumpId
+# comment
+0 0 0 1 7
+
+   # indented comment
+1 0 0 1 7
+5 0 0 1 3
+9 0 0 1 7   extra words are ignored, as in YADE
+9 0 3 1 7
+"""
+    cl = parse_text_clumps(text.splitlines(True), "t")
+    assert [c.clump_id for c in cl] == [7, 3, 7]
+    assert [c.n_spheres for c in cl] == [2, 1, 2]
+    assert [c.lines for c in cl] == [(3, 6), (7,), (8, 9)]
+    assert [c.repeated_id for c in cl] == [False, False, True]
+    np.testing.assert_array_equal(cl[2].centers, [[9, 0, 0], [9, 0, 3]])
+    np.testing.assert_array_equal(cl[0].radii, [1.0, 1.0])
+
+
+def test_reader_scale_and_shift_as_in_ymport():
+    cl = parse_text_clumps(["1 2 3 0.5 0\n"], scale=1e-3, shift=(10.0, 0.0, 0.0))
+    np.testing.assert_allclose(cl[0].centers, [[10.001, 0.002, 0.003]])
+    np.testing.assert_allclose(cl[0].radii, [0.0005])
+
+
+@pytest.mark.parametrize(
+    "line,match",
+    [
+        ("0 0 0 1", r":2: expected 5 columns"),
+        ("0 0 x 1 0", r":2: z is not a number"),
+        ("0 0 0 nan 0", r":2: r is not finite"),
+        ("0 inf 0 1 0", r":2: y is not finite"),
+        ("0 0 0 0 0", r":2: radius must be > 0"),
+        ("0 0 0 -1 0", r":2: radius must be > 0"),
+        ("0 0 0 1 1.0", r":2: clumpId must be an integer"),
+        ("0 0 0 1 1.23457e+06", r":2: clumpId must be an integer"),
+    ],
+)
+def test_reader_errors_name_the_line(line, match):
+    with pytest.raises(TextClumpsError, match=match) as info:
+        parse_text_clumps(["0 0 0 1 0\n", line + "\n"], "f.txt")
+    assert info.value.lineno == 2
+    assert isinstance(info.value, ValueError)
+
+
+def test_reader_empty_file():
+    with pytest.raises(TextClumpsError, match="no spheres"):
+        parse_text_clumps(["# only a comment\n", "\n"], "f.txt")
+
+
+def test_yade_export_format_round_trip(tmpfile):
+    # what yade.export.textClumps writes: '#format' header, optional '# comment', tab-separated %g
+    text = "#format x_y_z_r_clumpId\n# exported\n0\t0\t-0.033325\t0.06665\t12\n0\t0\t0.033325\t0.06665\t12\n"
+    cl = read_text_clumps(tmpfile(text))
+    assert len(cl) == 1 and cl[0].clump_id == 12 and cl[0].n_spheres == 2
+
+
+# ---------------------------------------------------------------- CLI output vs library
+def _library(centers_list, radii_list, method, density):
+    return [mass_properties(c, r, density=density, method=method) for c, r in zip(centers_list, radii_list)]
+
+
+EX_CENTERS = [
+    np.array([[0, 0, -0.033325], [0, 0, 0.033325]]),
+    np.array([[1.00, 0, 0], [1.07, 0, 0], [1.07, 0.06, 0]]),
+]
+EX_RADII = [np.array([0.06665, 0.06665]), np.array([0.05, 0.04, 0.03])]
+
+
+@pytest.mark.parametrize("method", ["pairwise", "sum", _m("exact")])
+def test_csv_matches_library(method):
+    out = run(EXAMPLE, "--method", method, "--density", "1140", "--format", "csv")
+    assert out.returncode == 0, out.stderr
+    assert out.stderr == ""
+    rows = list(csv.DictReader(io.StringIO(out.stdout)))
+    assert [r["id"] for r in rows] == ["0", "1"]
+    assert [r["n_spheres"] for r in rows] == ["2", "3"]
+    ref = _library(EX_CENTERS, EX_RADII, method, 1140.0)
+    summed = _library(EX_CENTERS, EX_RADII, "sum", 1140.0)
+    for row, mp, sm in zip(rows, ref, summed):
+        assert float(row["mass_kg"]) == pytest.approx(mp.mass, rel=1e-15)
+        assert float(row["volume_m3"]) == pytest.approx(mp.volume, rel=1e-15)
+        com = [float(row[k]) for k in ("com_x_m", "com_y_m", "com_z_m")]
+        np.testing.assert_allclose(com, mp.center_of_mass, rtol=1e-15, atol=1e-15)
+        I = [float(row[k]) for k in ("I1_kgm2", "I2_kgm2", "I3_kgm2")]
+        np.testing.assert_allclose(I, mp.principal_moments, rtol=1e-15)
+        assert float(row["overlap_percent"]) == pytest.approx(100 * (sm.mass / mp.mass - 1), rel=1e-12, abs=1e-12)
+
+
+def test_paper_dimer_overlap_correction_in_table(tmpfile):
+    out = run(tmpfile(DIMER), "--method", "pairwise", "--density", "1140")
+    assert out.returncode == 0, out.stderr
+    lines = [l for l in out.stdout.splitlines() if l and not l.startswith("#")]
+    header, row = lines[0].split(), lines[1].split()
+    assert header[:4] == ["id", "n", "mass", "volume"] and header[-1] == "overlap_%"
+    assert row[0] == "0" and row[1] == "2"
+    # 9/4 pi R^3 rho and 100 (32/27 - 1) = 18.519 %
+    assert float(row[2]) == pytest.approx(9 / 4 * math.pi * 0.06665**3 * 1140, rel=1e-5)
+    assert float(row[-1]) == pytest.approx(100 * 5 / 27, abs=1e-3)
+    assert "density=1140 kg/m^3" in out.stdout and "method=pairwise" in out.stdout
+
+
+def test_json_has_full_tensor_and_units(tmpfile):
+    out = run(EXAMPLE, "--method", "pairwise", "--format", "json", "--density", "2500")
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert doc["method"] == "pairwise" and doc["density"] == 2500.0
+    assert doc["units"]["mass"] == "kg"
+    ref = _library(EX_CENTERS, EX_RADII, "pairwise", 2500.0)
+    for item, mp in zip(doc["clumps"], ref):
+        np.testing.assert_allclose(item["inertia"], mp.inertia, rtol=1e-15, atol=1e-18)
+        np.testing.assert_allclose(item["principal_axes"], mp.principal_axes, atol=1e-15)
+        assert item["mass"] == pytest.approx(mp.mass, rel=1e-15)
+    assert doc["clumps"][1]["first_line"] == 9 and doc["clumps"][1]["last_line"] == 11
+
+
+def test_default_method_and_density():
+    out = run(EXAMPLE, "--format", "json")
+    if not _method_works(clumpprops.DEFAULT_METHOD):
+        assert out.returncode == 1 and "not available" in out.stderr
+        return
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert doc["method"] == clumpprops.DEFAULT_METHOD
+    assert doc["density"] == 1000.0  # YADE's default material density
+    ref = mass_properties(EX_CENTERS[0], EX_RADII[0], density=1000.0)
+    assert doc["clumps"][0]["mass"] == pytest.approx(ref.mass, rel=1e-15)
+
+
+def test_stdin_and_scale(tmpfile):
+    mm = "0 0 -33.325 66.65 0\n0 0 33.325 66.65 0\n"  # the dimer in millimetres
+    out = run("-", "--scale", "0.001", "--method", "sum", "--format", "csv", stdin=mm)
+    assert out.returncode == 0, out.stderr
+    row = next(csv.DictReader(io.StringIO(out.stdout)))
+    ref = mass_properties(EX_CENTERS[0], EX_RADII[0], density=1000.0, method="sum")
+    assert float(row["mass_kg"]) == pytest.approx(ref.mass, rel=1e-14)
+
+
+def test_repeated_id_warns_and_starts_a_new_clump(tmpfile):
+    out = run(tmpfile("0 0 0 1 0\n0 0 5 1 1\n0 0 10 1 0\n"), "--method", "sum", "--format", "csv")
+    assert out.returncode == 0
+    assert "warning" in out.stderr and ":3:" in out.stderr and "clump id 0" in out.stderr
+    assert [r["id"] for r in csv.DictReader(io.StringIO(out.stdout))] == ["0", "1", "0"]
+
+
+@pytest.mark.parametrize("method", [_m("montecarlo")])
+def test_montecarlo_options_are_passed(method):
+    a = run(EXAMPLE, "--method", method, "--samples", "20000", "--seed", "3", "--format", "json")
+    b = run(EXAMPLE, "--method", method, "--samples", "20000", "--seed", "3", "--format", "json")
+    assert a.returncode == 0, a.stderr
+    da, db = json.loads(a.stdout), json.loads(b.stdout)
+    assert da["clumps"][0]["mass"] == db["clumps"][0]["mass"]  # same seed, same numbers
+    ref = mass_properties(EX_CENTERS[0], EX_RADII[0], density=1000.0, method=method, n_samples=20000, seed=3)
+    assert da["clumps"][0]["mass"] == pytest.approx(ref.mass, rel=1e-12)
+    assert "mass_standard_error" in da["clumps"][0]
+
+
+@pytest.mark.parametrize("method", [_m("voxel")])
+def test_voxel_discretization_is_passed(method):
+    out = run(EXAMPLE, "--method", method, "--discretization", "12", "--format", "csv")
+    assert out.returncode == 0, out.stderr
+    row = next(csv.DictReader(io.StringIO(out.stdout)))
+    ref = mass_properties(EX_CENTERS[0], EX_RADII[0], density=1000.0, method=method, discretization=12)
+    assert float(row["mass_kg"]) == pytest.approx(ref.mass, rel=1e-14)
+
+
+# ---------------------------------------------------------------- errors: one line, no traceback
+def _one_line_error(out, *needles, code=1):
+    assert out.returncode == code, (out.returncode, out.stdout, out.stderr)
+    assert "Traceback" not in out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 if code == 1 else True, out.stderr
+    assert lines[-1].startswith("clumpprops: error:"), out.stderr
+    for n in needles:
+        assert n in lines[-1], (n, out.stderr)
+    assert out.stdout == ""
+
+
+def test_missing_file(tmp_path):
+    _one_line_error(run(tmp_path / "nope.txt"), "nope.txt", "No such file")
+
+
+def test_malformed_line_reports_line_number(tmpfile):
+    p = tmpfile("# header\n0 0 0 1 0\n0 0 1 one 0\n")
+    _one_line_error(run(p), f"{p}:3:", "r is not a number")
+
+
+def test_short_line(tmpfile):
+    p = tmpfile("0 0 0 1 0\n\n0 0 1 1\n")
+    _one_line_error(run(p), ":3:", "expected 5 columns")
+
+
+def test_triple_overlap_with_pairwise_names_clump_and_lines(tmpfile):
+    p = tmpfile("5 5 5 1 0\n0 0 0 1 4\n1 0 0 1 4\n0.5 0.8 0 1 4\n")
+    _one_line_error(run(p, "--method", "pairwise"), "clump id 4", "lines 2-4", "triple overlap")
+
+
+@pytest.mark.parametrize("method", [_m("exact")])
+def test_triple_overlap_is_fine_for_exact(tmpfile, method):
+    p = tmpfile("0 0 0 1 4\n1 0 0 1 4\n0.5 0.8 0 1 4\n")
+    out = run(p, "--method", method)
+    assert out.returncode == 0, out.stderr
+
+
+def test_empty_file(tmpfile):
+    _one_line_error(run(tmpfile("# nothing\n")), "no spheres")
+
+
+def test_binary_file(tmpfile, tmp_path):
+    p = tmp_path / "bin.txt"
+    p.write_bytes(b"\xff\xfe\x00\x81" * 10)
+    _one_line_error(run(p), "bin.txt")
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["--method", "nope"], "invalid choice"),
+        (["--density", "0"], "--density"),
+        (["--density", "abc"], "--density"),
+        (["--format", "xml"], "invalid choice"),
+        (["--method", "pairwise", "--samples", "10"], "--samples/--seed apply only to --method montecarlo"),
+        (["--method", "sum", "--discretization", "5"], "--discretization applies only to --method voxel"),
+        (["--samples", "-3", "--method", "montecarlo"], "--samples"),
+    ],
+)
+def test_bad_options_exit_2(args, needle):
+    out = run(EXAMPLE, *args)
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    assert needle in out.stderr
+
+
+def test_help_mentions_units_and_default_density():
+    out = run("--help")
+    assert out.returncode == 0
+    assert "kg/m^3" in out.stdout and "1000" in out.stdout and "textClumps" in out.stdout
+
+
+def test_main_is_importable_and_returns_status(tmpfile, capsys):
+    from clumpprops.cli import main
+
+    assert main([str(tmpfile(DIMER)), "--method", "sum", "--format", "csv"]) == 0
+    assert "0,2," in capsys.readouterr().out
+    assert main([str(tmpfile("0 0 0 1\n"))]) == 1
+    assert "expected 5 columns" in capsys.readouterr().err
