@@ -230,21 +230,22 @@ def _split_members(clump_body):
 
 
 def _clump_density(label, bodies):
-    rho = np.array([float(b.material.density) for b in bodies])
-    if not np.all(np.isfinite(rho)) or np.any(rho <= 0):
-        bad = [b.id for b, p in zip(bodies, rho) if not (np.isfinite(p) and p > 0)]
+    rho = [float(b.material.density) for b in bodies]
+    r0 = rho[0]
+    if not all(math.isfinite(p) and p > 0 for p in rho):
+        bad = [b.id for b, p in zip(bodies, rho) if not (math.isfinite(p) and p > 0)]
         raise ClumpAdapterError(f"{label}: sphere(s) {bad} have non-positive density")
-    if np.any(np.abs(rho - rho[0]) > 1e-12 * rho[0]):
+    if any(abs(p - r0) > 1e-12 * r0 for p in rho):
         raise ClumpAdapterError(
-            f"{label}: member spheres have different densities {sorted(set(rho.tolist()))} "
+            f"{label}: member spheres have different densities {sorted(set(rho))} "
             f"(ids {[b.id for b in bodies]}); the exact union needs one density"
         )
     return rho
 
 
 def _geometry(bodies):
-    x = np.array([_vec(b.state.pos) for b in bodies])
-    r = np.array([float(b.shape.radius) for b in bodies])
+    x = np.array([[p[0], p[1], p[2]] for p in (b.state.pos for b in bodies)], dtype=float)
+    r = np.array([b.shape.radius for b in bodies], dtype=float)
     return x, r
 
 
@@ -295,8 +296,9 @@ def _make_correction(Y, material, mask, m, p, w, V):
 
 
 def _place(Y, bodies, positions):
-    for b, x in zip(bodies, positions):
-        b.state.pos = Y.Vector3(float(x[0]), float(x[1]), float(x[2]))
+    V3 = Y.Vector3
+    for b, x in zip(bodies, np.asarray(positions, dtype=float).tolist()):
+        b.state.pos = V3(*x)
 
 
 def _restore(Y, clump, spheres, positions, corr, offset, origin):
@@ -316,8 +318,8 @@ def _restore(Y, clump, spheres, positions, corr, offset, origin):
     _place(Y, [corr], [origin + offset])
 
 
-def _check_new_spheres(k, spheres, seen):
-    Y = _Y.load()
+def _check_new_spheres(Y, k, spheres, seen):
+    """Validate one input clump; returns (bodies, positions [(x, y, z)], radii, densities)."""
     label = f"clump {k} of the input"
     try:
         spheres = list(spheres)
@@ -325,24 +327,35 @@ def _check_new_spheres(k, spheres, seen):
         raise ClumpAdapterError(f"{label} is not a list of bodies") from None
     if not spheres:
         raise ClumpAdapterError(f"{label} is empty")
+    Body, Sphere = Y.Body, Y.Sphere
+    xs, rs, rho = [], [], []
     for j, b in enumerate(spheres):
-        if not isinstance(b, Y.Body):
+        if not isinstance(b, Body):
             raise ClumpAdapterError(f"{label}, item {j}: not a yade Body ({type(b).__name__})")
         if b.id >= 0:
             raise ClumpAdapterError(f"{label}, item {j}: body #{b.id} is already in a scene")
-        if not isinstance(b.shape, Y.Sphere):
-            kind = type(b.shape).__name__ if b.shape is not None else "no shape"
+        shape = b.shape
+        if not isinstance(shape, Sphere):
+            kind = type(shape).__name__ if shape is not None else "no shape"
             raise ClumpAdapterError(f"{label}, item {j}: not a sphere ({kind})")
-        if b.material is None:
+        mat = b.material
+        if mat is None:
             raise ClumpAdapterError(f"{label}, item {j}: sphere has no material (density unknown)")
-        if not (float(b.shape.radius) > 0 and np.isfinite(float(b.shape.radius))):
-            raise ClumpAdapterError(f"{label}, item {j}: radius {b.shape.radius} is not positive")
+        r = shape.radius
+        if not (r > 0 and math.isfinite(r)):
+            raise ClumpAdapterError(f"{label}, item {j}: radius {r} is not positive")
         key = id(b)
         if key in seen:
             raise ClumpAdapterError(f"{label}, item {j}: the same Body object is given twice")
         seen.add(key)
-    rho = _clump_density(label, spheres)
-    return spheres, rho
+        p = b.state.pos
+        xs.append((p[0], p[1], p[2]))
+        rs.append(r)
+        rho.append(mat.density)
+    r0 = rho[0]
+    if not (math.isfinite(r0) and r0 > 0) or any(p != r0 for p in rho):
+        _clump_density(label, spheres)  # raises with the details (or accepts a 1e-12 spread)
+    return spheres, xs, rs, rho
 
 
 def append_clumps(clumps, method=DEFAULT_METHOD):
@@ -354,27 +367,47 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
     """
     Y = _Y.load()
     seen = set()
-    checked = [_check_new_spheres(k, s, seen) for k, s in enumerate(clumps)]
+    checked = [_check_new_spheres(Y, k, s, seen) for k, s in enumerate(clumps)]
     if not checked:
         return []
-    xs, rs, rhos = [], [], []
-    for spheres, rho in checked:
-        x, r = _geometry(spheres)
-        xs.append(x)
-        rs.append(r)
-        rhos.append(rho)
+    xs = [np.array(c[1], dtype=float) for c in checked]
+    rs = [np.array(c[2], dtype=float) for c in checked]
+    rhos = [c[3] for c in checked]
     try:
         mass, com, inertia = _batch_properties(xs, rs, rhos, method)
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
     m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
+    # python floats from here: the per-clump loop talks to YADE only
+    V3, Q, M3 = Y.Vector3, Y.Quaternion, Y.Matrix3
+    com_l, off_l, w_l, m_l = com.tolist(), off.tolist(), w_c.tolist(), m_c.tolist()
+    rows_l = np.swapaxes(V_c, 1, 2).reshape(-1, 9).tolist()  # V^T, row by row (see _make_correction)
+    append = Y.O.bodies.appendClumped
     out = []
-    for k, (spheres, _) in enumerate(checked):
-        o = com[k]
-        _place(Y, spheres, xs[k] - o)  # build near the origin: see _restore
-        corr = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], off[k], w_c[k], V_c[k])
-        cid, mids = Y.O.bodies.appendClumped(list(spheres) + [corr], discretization=0)
-        _restore(Y, Y.O.bodies[cid], [Y.O.bodies[i] for i in mids[: len(spheres)]], xs[k], Y.O.bodies[mids[-1]], off[k], o)
+    for k, (spheres, pos, _, _) in enumerate(checked):
+        ox, oy, oz = com_l[k]
+        for b, (x, y, z) in zip(spheres, pos):  # build near the origin: see _restore
+            b.state.pos = V3(x - ox, y - oy, z - oz)
+        corr = Y.Body()
+        corr.shape = Y.Shape()
+        corr.material = spheres[0].material
+        corr.bounded = False
+        corr.mask = spheres[0].mask
+        st = corr.state
+        st.mass = m_l[k]
+        st.pos = V3(*off_l[k])
+        st.inertia = V3(*w_l[k])
+        q = Q(M3(*rows_l[k]))
+        q.normalize()
+        st.ori = q
+        cid, mids = append(spheres + [corr], 0)
+        c = Y.O.bodies[cid].state
+        p = c.pos
+        c.pos = V3(ox + p[0], oy + p[1], oz + p[2])
+        for b, xyz in zip(spheres, pos):
+            b.state.pos = V3(*xyz)
+        dx, dy, dz = off_l[k]
+        st.pos = V3(ox + dx, oy + dy, oz + dz)
         out.append((cid, list(mids[: len(spheres)])))
     return out
 
