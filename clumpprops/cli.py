@@ -102,7 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"solid density in kg/m^3 (default: {DEFAULT_DENSITY:g}, YADE's default material density)",
     )
     p.add_argument("--format", choices=("table", "csv", "json"), default="table", help="output format (default: table)")
-    p.add_argument("--samples", type=_positive_int, metavar="N", help="montecarlo: number of sample points")
+    p.add_argument("--samples", type=_positive_int, metavar="N", help="montecarlo: number of sample points (default: the library's, 10**6)")
     p.add_argument("--seed", type=_int, metavar="S", help="montecarlo: random seed (default: nondeterministic)")
     p.add_argument("--discretization", type=_positive_int, metavar="K", help="voxel: cells along the shortest AABB side")
     p.add_argument(
@@ -180,6 +180,12 @@ def _rows(clumps, mp, summed):
         yield i, row
 
 
+def _zero_noise(com, clump: TextClump, rel=1e-13):
+    """COM components below rel * (clump size) are round-off: shown as 0 in the table (csv/json keep them)."""
+    size = float(np.max(np.linalg.norm(clump.centers - np.asarray(com), axis=1) + clump.radii))
+    return [0.0 if abs(x) <= rel * size else x for x in com]
+
+
 def format_table(clumps, mp, summed, args) -> str:
     out = io.StringIO()
     out.write(
@@ -195,9 +201,9 @@ def format_table(clumps, mp, summed, args) -> str:
     if sampled:
         head.insert(3, "mass_se")
     rows = [head]
-    for _, r in _rows(clumps, mp, summed):
+    for i, r in _rows(clumps, mp, summed):
         cells = [str(r["id"]), str(r["n_spheres"]), f"{r['mass']:.6g}", f"{r['volume']:.6g}"]
-        cells += [f"{x:.6g}" for x in r["com"]]
+        cells += [f"{x:.6g}" for x in _zero_noise(r["com"], clumps[i])]
         cells += [f"{x:.6g}" for x in r["principal_moments"]]
         cells.append(f"{r['overlap_percent']:.3f}")
         if sampled:
