@@ -504,10 +504,10 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
             corr.bounded = False
             Y.O.bodies.addToClump([corr_id], cb.id, discretization=0)
         _restore(Y, cb, spheres, xs[k], Y.O.bodies[corr_id], off[k], o)
-        # updateProperties zeroes the clump's velocities: restore the rigid-body velocity field
-        if np.any(v_old) or np.any(w_old):
-            c_new = _vec(cb.state.pos)
-            set_clump_velocity(cb.id, v_old + np.cross(w_old, c_new - c_old), w_old)
+        # updateProperties zeroes vel and angVel (not angMom): restore the rigid-body velocity
+        # field, with angMom consistent with the new tensor
+        c_new = _vec(cb.state.pos)
+        set_clump_velocity(cb.id, v_old + np.cross(w_old, c_new - c_old), w_old)
         out.append(corr_id)
     return out
 
