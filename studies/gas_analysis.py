@@ -69,6 +69,8 @@ def run_msd(runs_dir, name, t_eq):
     z = np.load(src)
     t = z["t"]
     keep = t >= t_eq - 1e-9
+    if len(t) > 2 and abs((t[1] - t[0]) - (t[2] - t[1])) > 1e-9:
+        keep[0] = False        # frame 0 (t = 0) is one step off the even grid of frames 1, 2, ...
     x = z["disp"][keep]
     msd = msd_fft(x)
     lag = t[keep] - t[keep][0]
@@ -186,7 +188,8 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
         n = min(len(seeds[k][0]) for k in common)
         n = min([n] + [len(ex[k][0]) for k in common] + [len(sp[k][0]) for k in common])
         lag = ex[common[0]][0][:n]
-        R = np.array([(seeds[k][1][:n] - ex[k][1][:n]) / (sp[k][1][:n] - ex[k][1][:n]) for k in common])
+        with np.errstate(invalid="ignore", divide="ignore"):      # lag 0 is 0/0
+            R = np.array([(seeds[k][1][:n] - ex[k][1][:n]) / (sp[k][1][:n] - ex[k][1][:n]) for k in common])
         idx = np.unique(np.round(np.geomspace(1, n - 1, 120)).astype(int))
         for i in idx:
             m, lo, hi, se, nn = t_interval(R[:, i])
