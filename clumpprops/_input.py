@@ -95,8 +95,10 @@ def normalize(centers, radii) -> Spheres:
         r = _as_float_array(radii, "radii")
         if c.ndim == 2:
             batched = False
+            if r.shape != (c.shape[0],):
+                raise ValueError(f"radii must have shape ({c.shape[0]},) to match centers {c.shape}, got {r.shape}")
             c = c[None]
-            r = r[None] if r.ndim == 1 else r
+            r = r[None]
         elif c.ndim == 3:
             batched = True
         else:

@@ -143,8 +143,15 @@ def inertia_from_second_moment(Qc: np.ndarray, density: float) -> np.ndarray:
 def finish(V, S, Q, origin, density, method, batched, standard_error=None) -> MassProperties:
     """Build :class:`MassProperties` from volume moments about the per-clump origin (see module doc)."""
     V = np.asarray(V, dtype=np.float64)
-    if np.any(~np.isfinite(V)) or np.any(V <= 0):
-        raise ArithmeticError(f"internal error in method {method!r}: non-positive or non-finite volume {V}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        finite = np.isfinite(V).all() and np.isfinite(S).all() and np.isfinite(Q).all() and np.isfinite(Q * density).all()
+    if not finite:
+        raise ValueError(
+            "the clump's moments overflow float64 (input too large: radius^5 * density must stay "
+            "below ~1e308 in SI units); rescale the input"
+        )
+    if np.any(V <= 0):
+        raise ArithmeticError(f"internal error in method {method!r}: non-positive volume {V}")
     d = S / V[:, None]
     Qc = Q
     Qc -= S[:, :, None] * d[:, None, :]

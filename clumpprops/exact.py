@@ -73,17 +73,18 @@ def _caps(sph: Spheres):
     a, b, D, e, ra, rb = a[keep], b[keep], D[keep], e[keep], ra[keep], rb[keep]
     delta = ra + rb - D  # > 0
     # cap on a (towards b): 1 - h_a = l_a / r_a, 1 + h_a = (r_a + D - r_b)(r_a + D + r_b) / (2 r_a D)
-    omh_a = delta * (rb - ra + D) / (2.0 * ra * D)
-    oph_a = (ra + D - rb) * (ra + D + rb) / (2.0 * ra * D)
-    omh_b = delta * (ra - rb + D) / (2.0 * rb * D)
-    oph_b = (rb + D - ra) * (rb + D + ra) / (2.0 * rb * D)
+    omh_a = delta * ((rb - ra) + D) / (2.0 * ra * D)
+    oph_a = ((ra - rb) + D) * (ra + D + rb) / (2.0 * ra * D)  # (ra - rb) first: exact for close radii
+    omh_b = delta * ((ra - rb) + D) / (2.0 * rb * D)
+    oph_b = ((rb - ra) + D) * (rb + D + ra) / (2.0 * rb * D)
     owner = np.concatenate([a, b])
     n = np.concatenate([e, -e])
     omh = np.concatenate([omh_a, omh_b])
     oph = np.concatenate([oph_a, oph_b])
-    h = np.concatenate([1.0 - omh_a, 1.0 - omh_b])
-    # h from whichever of 1-h, 1+h is smaller keeps its digits
-    h = np.where(omh < oph, 1.0 - omh, oph - 1.0)
+    # h directly (accurate near 0, e.g. nearly coincident spheres); rho from the factored
+    # 1 - h and 1 + h (accurate for tiny caps and nearly buried spheres)
+    dr = (ra - rb) * (ra + rb)
+    h = np.concatenate([(D * D + dr) / (2.0 * ra * D), (D * D - dr) / (2.0 * rb * D)])
     rho = np.sqrt(np.clip(omh * oph, 0.0, None))
     other = np.concatenate([b, a])
     return owner, other, n, h, rho, buried
@@ -132,8 +133,23 @@ def _sphere_surface_moments(n, h, rho, rank):
     crosses = pair & (R > 0) & (np.abs(cosarg) < 1.0)
     ac = np.arccos(np.clip(cosarg, -1.0, 1.0))
     two_pi = 2.0 * np.pi
-    t_a = np.mod(phi + ac, two_pi)
-    t_b = np.mod(phi - ac, two_pi)
+    t_a = phi + ac
+    t_b = phi - ac
+    # Each crossing point is computed once, on the lower-slot circle k < j, and located on
+    # circle j from that same 3-D point: the boundary of the union of caps then closes
+    # exactly even where two circles nearly coincide (crossing angles ill-conditioned).
+    upper = np.triu(np.ones((K, K), dtype=bool), 1)[None]
+    crosses = np.where(upper, crosses, np.swapaxes(crosses, 1, 2))
+
+    def on_other_circle(t):
+        ct, st = np.cos(t), np.sin(t)
+        P = (h[:, :, None, None] * n[:, :, None, :] + rho[:, :, None, None]
+             * (ct[..., None] * e1[:, :, None, :] + st[..., None] * e2[:, :, None, :]))
+        P = np.swapaxes(P, 1, 2)  # [c, j, k]: point computed on circle k, seen from circle j
+        return np.arctan2(np.einsum("cjkx,cjx->cjk", P, e2), np.einsum("cjkx,cjx->cjk", P, e1))
+
+    t_a = np.mod(np.where(upper, t_a, on_other_circle(t_a)), two_pi)
+    t_b = np.mod(np.where(upper, t_b, on_other_circle(t_b)), two_pi)
     pts = np.concatenate([np.where(crosses, t_a, np.inf), np.where(crosses, t_b, np.inf)], axis=2)  # (C,K,2K)
     pts.sort(axis=2)
     P = np.count_nonzero(np.isfinite(pts), axis=2)  # (C,K)
