@@ -1,13 +1,20 @@
 # clumpprops: the README's two commands are `make run` and `make test`.
 PY := .venv/bin/python
-.PHONY: setup run test bench example
+.PHONY: setup run test bench example paper
 setup:
 	@bash scripts/setup.sh
-example: setup
-	$(PY) examples/paper_dimer.py
+# main job: the worked example, then the paper's Fig. 2 at the quick scale (~15 min, 2 cores)
 run: setup
 	$(PY) examples/paper_dimer.py
+	OMP_NUM_THREADS=1 $(PY) -m studies.granular_gas run --scale quick
+# the paper-scale study (the committed results/granular_gas)
+paper: setup
+	OMP_NUM_THREADS=1 $(PY) -m studies.granular_gas run --scale paper
 test: setup
-	$(PY) -m pytest -q tests
+	OMP_NUM_THREADS=1 $(PY) -m pytest -q tests
+example: setup
+	$(PY) examples/paper_dimer.py
 bench: setup
-	$(PY) benchmarks/bench_massprops.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_massprops.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_yade_build.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_gas.py
