@@ -170,19 +170,27 @@ def _sphere_surface_moments(n, h, rho, rank):
     # --- coverage of each arc by each other cap j.  f_j has no zero inside the arc (its
     # crossings are split points), so the sign of f_j at the arc point of largest |f_j|
     # (an end point, or the extremum of f_j if it lies inside the arc) decides robustly.
-    mm, AA, BB, RR, ph = m[:, :, None, :], A[:, :, None, :], B[:, :, None, :], R[:, :, None, :], phi[:, :, None, :]
-    c1, s1, c2, s2 = (np.cos(t1)[..., None], np.sin(t1)[..., None], np.cos(t2)[..., None], np.sin(t2)[..., None])
-    f1 = mm + AA * c1 + BB * s1
-    f2 = mm + AA * c2 + BB * s2
-    T1 = t1[..., None]
-    span = (t2 - t1)[..., None]
-    has_max = np.mod(ph - T1, two_pi) < span
-    has_min = np.mod(ph + np.pi - T1, two_pi) < span
-    fhi = np.maximum(f1, f2)
-    np.maximum(fhi, np.where(has_max, mm + RR, -np.inf), out=fhi)
-    flo = np.minimum(f1, f2)
-    np.minimum(flo, np.where(has_min, mm - RR, np.inf), out=flo)
-    covered = fhi + flo > 0  # the value of largest magnitude is positive
+    # Most (arc, cap) pairs are decided at the arc's midpoint: |f(t) - f(t_mid)| <= R |t - t_mid|,
+    # so f(t_mid) beyond R * span / 2 fixes the sign on the whole arc.  The rest get the
+    # robust test below, on the gathered subset only.
+    tm = 0.5 * (t1 + t2)
+    half = (0.5 * (t2 - t1))[..., None]
+    fm = m[:, :, None, :] + A[:, :, None, :] * np.cos(tm)[..., None] + B[:, :, None, :] * np.sin(tm)[..., None]
+    bound = R[:, :, None, :] * half
+    covered = fm > bound
+    unsure = np.abs(fm) <= bound
+    if np.any(unsure):
+        ci, ki, qi, ji = np.nonzero(unsure)
+        mm, AA, BB, RR, ph = m[ci, ki, ji], A[ci, ki, ji], B[ci, ki, ji], R[ci, ki, ji], phi[ci, ki, ji]
+        T1, T2 = t1[ci, ki, qi], t2[ci, ki, qi]
+        f1 = mm + AA * np.cos(T1) + BB * np.sin(T1)
+        f2 = mm + AA * np.cos(T2) + BB * np.sin(T2)
+        span = T2 - T1
+        fhi = np.maximum(f1, f2)
+        fhi = np.where(np.mod(ph - T1, two_pi) < span, np.maximum(fhi, mm + RR), fhi)
+        flo = np.minimum(f1, f2)
+        flo = np.where(np.mod(ph + np.pi - T1, two_pi) < span, np.minimum(flo, mm - RR), flo)
+        covered[ci, ki, qi, ji] = fhi + flo > 0  # the value of largest magnitude is positive
     # coincident circles of equally oriented caps: the lower-ranked cap covers the other
     coincident = (R <= 1e-14) & (np.abs(m) <= 1e-14) & (g > 0)
     tie = coincident & (rank[:, None, :] < rank[:, :, None])
