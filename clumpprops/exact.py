@@ -38,7 +38,8 @@ from .pairwise import sphere_moments
 _FOUR_PI = 4.0 * np.pi
 # candidate poles: 6 axes, 12 edge and 8 corner directions of a cube, and 6 more
 _POLES = None
-_CHUNK_ELEMENTS = 2_000_000  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+_CHUNK_ELEMENTS = 2_000_000
+_RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (see _caps)  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
 
 
 def _poles():
@@ -87,6 +88,20 @@ def _caps(sph: Spheres):
     h = np.concatenate([(D * D + dr) / (2.0 * ra * D), (D * D - dr) / (2.0 * rb * D)])
     rho = np.sqrt(np.clip(omh * oph, 0.0, None))
     other = np.concatenate([b, a])
+    # Near-tangent pairs (rim circle radius < _RHO_TANGENT of both spheres; round-off near
+    # a tangency makes circles of radius ~sqrt(eps)): treat as tangent.  Externally: no
+    # caps; internally: the inner sphere is buried.  The change in every moment is below
+    # the lens volume, ~ pi/4 rho^4 r^3 < 1e-24 r^3.
+    P = len(a)
+    tiny = np.maximum(rho[:P], rho[P:]) < _RHO_TANGENT
+    if np.any(tiny):
+        inner_a = tiny & (h[:P] < 0)
+        inner_b = tiny & (h[P:] < 0)
+        buried[a[inner_a]] = True
+        buried[b[inner_b]] = True
+        drop = np.concatenate([tiny, tiny])
+        drop |= buried[owner] | buried[other]
+        owner, other, n, h, rho = owner[~drop], other[~drop], n[~drop], h[~drop], rho[~drop]
     return owner, other, n, h, rho, buried
 
 
@@ -151,10 +166,20 @@ def _sphere_surface_moments(n, h, rho, rank):
     t_a = np.mod(np.where(upper, t_a, on_other_circle(t_a)), two_pi)
     t_b = np.mod(np.where(upper, t_b, on_other_circle(t_b)), two_pi)
     pts = np.concatenate([np.where(crosses, t_a, np.inf), np.where(crosses, t_b, np.inf)], axis=2)  # (C,K,2K)
-    pts.sort(axis=2)
+    # which cap each split point crosses, and whether circle k enters it there (+1) or
+    # leaves it (-1): at t = phi + ac, f_kj decreases (leaves), at phi - ac it increases;
+    # on the other circle of a shared crossing point the direction is the opposite one
+    jj = np.broadcast_to(np.concatenate([np.arange(K), np.arange(K)]), pts.shape)
+    up2 = np.concatenate([np.broadcast_to(upper, (C, K, K)), np.broadcast_to(upper, (C, K, K))], axis=2)
+    typ = np.where(up2, 1, -1) * np.concatenate([-np.ones(K, int), np.ones(K, int)])
+    order = np.argsort(pts, axis=2)
+    pts = np.take_along_axis(pts, order, axis=2)
     P = np.count_nonzero(np.isfinite(pts), axis=2)  # (C,K)
     Q = max(int(P.max()), 1)  # most circles meet few others: drop the all-padding tail
+    order = order[:, :, :Q]
     pts = pts[:, :, :Q]
+    jq = np.take_along_axis(jj, order, axis=2)
+    tq = np.take_along_axis(typ, order, axis=2)
     idx = np.arange(Q)
     t1 = np.where(P[:, :, None] > 0, pts, 0.0)
     nxt = np.where(idx[None, None, :] + 1 < P[:, :, None], idx + 1, 0)
@@ -191,6 +216,15 @@ def _sphere_surface_moments(n, h, rho, rank):
         flo = np.minimum(f1, f2)
         flo = np.where(np.mod(ph + np.pi - T1, two_pi) < span, np.minimum(flo, mm - RR), flo)
         covered[ci, ki, qi, ji] = fhi + flo > 0  # the value of largest magnitude is positive
+    # the caps crossed at the arc's two ends are decided by the crossing directions, the
+    # same way on both circles of each crossing point, so the boundary of the union of caps
+    # closes even where several circles pass (nearly) through one point
+    has_split = (P > 0)[:, :, None] & arc_ok
+    jn = np.take_along_axis(jq, np.broadcast_to(nxt, jq.shape), axis=2)
+    tn = np.take_along_axis(tq, np.broadcast_to(nxt, tq.shape), axis=2)
+    for jsel, dec in ((jn, tn == -1), (jq, tq == 1)):
+        cur = np.take_along_axis(covered, jsel[..., None], axis=3)[..., 0]
+        np.put_along_axis(covered, jsel[..., None], np.where(has_split, dec, cur)[..., None], axis=3)
     # coincident circles of equally oriented caps: the lower-ranked cap covers the other
     coincident = (R <= 1e-14) & (np.abs(m) <= 1e-14) & (g > 0)
     tie = coincident & (rank[:, None, :] < rank[:, :, None])
