@@ -304,6 +304,35 @@ def _sphere_surface_moments(n, h, rho, rank):
     return a, m1, m2, m3
 
 
+def _single_cap_moments(n, h, rho):
+    """a, m1, m2, m3 of the unit sphere minus one cap u.n > h, in closed form (C spheres).
+
+    With z = u.n and P = 1 - n n^T, the cap's moments are: area 2 pi w, int u = pi (1 - h^2) n,
+    int u u^T = 2 pi (1 - h^3)/3 n n^T + pi [w - (1 - h^3)/3] P and
+    int u u u = alpha n n n + beta sym(n P), alpha = pi (1 - h^4)/2,
+    beta = pi [(1 - h^2)/2 - (1 - h^4)/4], where w = 1 - h is taken as rho^2 / (1 + h)
+    for h > 0 so that tiny caps keep their digits.
+    """
+    w = np.where(h > 0, rho * rho / (1.0 + h), 1.0 - h)  # 1 - h
+    oph = 2.0 - w  # 1 + h
+    one_m_h2 = w * oph
+    one_m_h3 = w * (1.0 + h + h * h)
+    one_m_h4 = one_m_h2 * (1.0 + h * h)
+    pi = np.pi
+    nn = n[:, :, None] * n[:, None, :]
+    Pp = np.eye(3)[None] - nn
+    a = _FOUR_PI - 2.0 * pi * w
+    m1 = -(pi * one_m_h2)[:, None] * n
+    cap2 = (2.0 * pi * one_m_h3 / 3.0)[:, None, None] * nn + (pi * (w - one_m_h3 / 3.0))[:, None, None] * Pp
+    m2 = (_FOUR_PI / 3.0) * np.eye(3)[None] - cap2
+    alpha = 0.5 * pi * one_m_h4
+    beta = pi * (0.5 * one_m_h2 - 0.25 * one_m_h4)
+    nP = n[:, :, None, None] * Pp[:, None, :, :]
+    sym = nP + np.transpose(nP, (0, 2, 1, 3)) + np.transpose(nP, (0, 2, 3, 1))
+    m3 = -(alpha[:, None, None, None] * n[:, :, None, None] * nn[:, None, :, :] + beta[:, None, None, None] * sym)
+    return a, m1, m2, m3
+
+
 def _volume_moments_from_surface(c, r, a, m1, m2, m3):
     """Per-sphere V, S, Q contributions (divergence theorem) from unit-sphere moments of E."""
     cm1 = np.einsum("sx,sx->s", c, m1)
@@ -386,7 +415,10 @@ def exact_moments(sph: Spheres):
             keep[rows] = _uncovered_caps(n[rows], h[rows], rho[rows], other[rows])
         owner, other, n, h, rho = owner[keep], other[keep], n[keep], h[keep], rho[keep]
         for rows in _grouped(owner, other, per_sphere_cost=lambda K: 2 * K * K * K + 64):
-            a, m1, m2, m3 = _sphere_surface_moments(n[rows], h[rows], rho[rows], other[rows])
+            if rows.shape[1] == 1:
+                a, m1, m2, m3 = _single_cap_moments(n[rows[:, 0]], h[rows[:, 0]], rho[rows[:, 0]])
+            else:
+                a, m1, m2, m3 = _sphere_surface_moments(n[rows], h[rows], rho[rows], other[rows])
             ids = owner[rows[:, 0]]
             v, s, q = _volume_moments_from_surface(sph.centers[ids], sph.radii[ids], a, m1, m2, m3)
             cl = sph.clump[ids]
