@@ -12,6 +12,7 @@ msd.csv                case, protocol, lag_s, msd_mean, msd_stderr, n_seeds (log
 ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
                        (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact), paired by seed
 ratio_D.csv            the same ratio for the diffusion coefficients
+diff_D.csv             D_case - D_exact paired by seed, with a t-interval (absolute and relative)
 energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
 energy_equal_energy.csv  the same for the equal-energy runs
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
@@ -164,6 +165,23 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
                ["case", "protocol", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "stderr",
                 "max_energy_drift", "hard_particle_prediction_from_paired"], prow)
 
+    # ---- D differences from the exact clumps, paired by seed ----
+    drows = []
+    ex = per.get(("exact", "paired"), {})
+    for (case, prot), seeds in per.items():
+        if case == "exact" and prot == "paired":
+            continue
+        common = sorted(set(seeds) & set(ex))
+        if not common:
+            continue
+        diff = [seeds[k][2] - ex[k][2] for k in common]
+        m, lo, hi, se, n = t_interval(diff)
+        dex = float(np.mean([ex[k][2] for k in common]))
+        drows.append([case, prot, n, m, lo, hi, se, m / dex, lo / dex, hi / dex])
+    _write_csv(os.path.join(out, "diff_D.csv"),
+               ["case", "protocol", "n_seeds", "d_minus_d_exact", "ci_low", "ci_high", "stderr",
+                "relative", "relative_ci_low", "relative_ci_high"], drows)
+
     # ---- MSD tables (log-spaced lags) ----
     mrows = []
     for (case, prot), seeds in per.items():
@@ -264,6 +282,9 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
     for r in prow:
         log(f"[analyze]   D[{label(r[0], r[1])}] = {r[3]:.5g} m^2/s  95% CI [{r[4]:.5g}, {r[5]:.5g}]  "
             f"(n={r[2]}, max energy drift {r[7]:.2g})")
+    for r in drows:
+        log(f"[analyze]   D[{label(r[0], r[1])}] - D[exact] = {r[3]:+.4f} m^2/s  95% CI [{r[4]:+.4f}, {r[5]:+.4f}] "
+            f"({100 * r[7]:+.2f} %, n={r[2]} paired seeds)")
     for r in rdrows:
         log(f"[analyze]   ratio_D[{r[0]}] = {r[2]:.3f}  95% CI [{r[3]:.3f}, {r[4]:.3f}] (n={r[1]})")
     return params

@@ -119,9 +119,11 @@ def plot_all(out, log=print):
                 ax.plot(g.t, g.rot_fraction, **st2)
         ax.axhline(0.6, color="gray", lw=0.8, ls="--")
         ax.axhline(0.4, color="gray", lw=0.8, ls="--")
-        ax.text(part.t.max() * 0.6, 0.62, "equipartition, 3 + 2 dof: 3/5", fontsize=8, color="gray")
-        ax.text(part.t.max() * 0.6, 0.36, "rotational: 2/5", fontsize=8, color="gray")
-        ax.set(xscale="symlog", xlabel="t (s)", ylabel="share of total energy",
+        ax.text(0.1, 0.62, "equipartition (3 + 2 dof): translational 3/5", fontsize=8, color="gray")
+        ax.text(0.1, 0.36, "rotational 2/5", fontsize=8, color="gray")
+        ax.set_xscale("symlog", linthresh=1.0)
+        ax.set_xlim(0, part.t.max())
+        ax.set(xlabel="t (s)  (linear below 1 s)", ylabel="share of total energy (seed mean)",
                title="energy partition (upper: translational, lower: rotational)")
         ax.set_ylim(-0.02, 1.02)
         ax.legend(fontsize=7, loc="center right")

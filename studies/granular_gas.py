@@ -48,11 +48,12 @@ SCALES = {
                   t_eq=25.0, fit_lo=40.0, fit_hi=62.0),
     # paper scale (the committed results): 400 s per run; groups in priority order (a sweep
     # stopped early still has the main comparison): 3 seeds of exact/uncorrected/spheres, then
-    # 2 seeds of the open-question cases and of the equal-energy protocol, then more main seeds
+    # 2 seeds of the open-question cases and of the equal-energy protocol, then 5 more main
+    # seeds (~80 min on 2 free cores)
     "paper": dict(n_particles=864, volume_fraction=gm.VOLUME_FRACTION, t_end=400.0, rec_interval=0.25,
                   groups=[(MAIN, "paired", [1, 2, 3]), (SECONDARY, "paired", [1, 2]),
                           (("uncorrected", "inertia_only"), "equal_energy", [1, 2]),
-                          (MAIN, "paired", [4, 5])],
+                          (MAIN, "paired", [4, 5, 6, 7, 8])],
                   t_eq=50.0, fit_lo=125.0, fit_hi=175.0),
 }
 RUN_FIELDS = ("case", "protocol", "seed", "n_particles", "volume_fraction", "energy_per_particle",
