@@ -10,9 +10,12 @@ protocols.csv          the same for every (case, protocol) plus the hard-particl
 runs.csv               every run: flags, drifts, per-seed D; failed runs are listed, never used
 msd.csv                case, protocol, lag_s, msd_mean, msd_stderr, n_seeds (log-spaced lags)
 ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
-                       (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact), paired by seed
+                       (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact), paired by seed;
+                       gap_rel = (MSD_spheres - MSD_exact) / MSD_exact (the ratio is undefined
+                       where the sphere and clump curves cross, gap_rel ~ 0)
 ratio_D.csv            the same ratio for the diffusion coefficients
 diff_D.csv             D_case - D_exact paired by seed, with a t-interval (absolute and relative)
+diffusion_sensitivity.csv  D and D - D_exact for other equilibration cuts / fit windows
 energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
 energy_equal_energy.csv  the same for the equal-energy runs
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
@@ -182,6 +185,24 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
                ["case", "protocol", "n_seeds", "d_minus_d_exact", "ci_low", "ci_high", "stderr",
                 "relative", "relative_ci_low", "relative_ci_high"], drows)
 
+    # ---- sensitivity of D to the equilibration cut and the fit window ----
+    srows = []
+    for t_eq, lo, hi in cfg.get("sensitivity", []):
+        alt = {}
+        for s, n, r in good:
+            lag, msd = run_msd(runs_dir, n, t_eq)
+            alt.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = fit_d(lag, msd, lo, hi)
+        ex_alt = alt.get(("exact", "paired"), {})
+        for (case, prot), seeds in alt.items():
+            mean, clo, chi, se, n = t_interval(list(seeds.values()))
+            common = sorted(set(seeds) & set(ex_alt))
+            dm, dlo, dhi, _, _ = t_interval([seeds[k] - ex_alt[k] for k in common])
+            srows.append([case, prot, t_eq, lo, hi, n, mean, clo, chi, dm, dlo, dhi])
+    if srows:
+        _write_csv(os.path.join(out, "diffusion_sensitivity.csv"),
+                   ["case", "protocol", "t_eq", "fit_lo", "fit_hi", "n_seeds", "diffusion_coefficient", "ci_low",
+                    "ci_high", "d_minus_d_exact", "diff_ci_low", "diff_ci_high"], srows)
+
     # ---- MSD tables (log-spaced lags) ----
     mrows = []
     for (case, prot), seeds in per.items():
@@ -208,14 +229,15 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
         lag = ex[common[0]][0][:n]
         with np.errstate(invalid="ignore", divide="ignore"):      # lag 0 is 0/0
             R = np.array([(seeds[k][1][:n] - ex[k][1][:n]) / (sp[k][1][:n] - ex[k][1][:n]) for k in common])
+        gap = np.mean([(sp[k][1][:n] - ex[k][1][:n]) / np.maximum(ex[k][1][:n], 1e-300) for k in common], axis=0)
         idx = np.unique(np.round(np.geomspace(1, n - 1, 120)).astype(int))
         for i in idx:
             m, lo, hi, se, nn = t_interval(R[:, i])
-            rrows.append([label(case, prot), float(lag[i]), m, lo, hi, nn])
+            rrows.append([label(case, prot), float(lag[i]), m, lo, hi, nn, float(gap[i])])
         rd = [(seeds[k][2] - ex[k][2]) / (sp[k][2] - ex[k][2]) for k in common]
         m, lo, hi, se, nn = t_interval(rd)
         rdrows.append([label(case, prot), nn, m, lo, hi, se])
-    _write_csv(os.path.join(out, "ratio.csv"), ["case", "lag_s", "ratio", "ci_low", "ci_high", "n_seeds"], rrows)
+    _write_csv(os.path.join(out, "ratio.csv"), ["case", "lag_s", "ratio", "ci_low", "ci_high", "n_seeds", "gap_rel"], rrows)
     _write_csv(os.path.join(out, "ratio_D.csv"), ["case", "n_seeds", "ratio", "ci_low", "ci_high", "stderr"], rdrows)
 
     # ---- energies ----

@@ -12,6 +12,8 @@ import os
 
 import numpy as np
 
+GAP_MIN = 0.05     # ratio.png hides lags where |MSD_spheres / MSD_exact - 1| < 5 %
+
 STYLE = {
     "exact": dict(color="k", ls="-", label="exact (clumpprops)"),
     "uncorrected": dict(color="tab:red", ls="--", label="uncorrected (summed spheres)"),
@@ -84,24 +86,34 @@ def plot_all(out, log=print):
     ratio = _read(os.path.join(out, "ratio.csv"))
     rd = _read(os.path.join(out, "ratio_D.csv"))
     if ratio is not None and len(ratio):
-        fig, ax = plt.subplots(figsize=(7, 4.5))
+        fig, ax = plt.subplots(figsize=(8, 5))
+        cross = None
         for case, g in ratio.groupby("case", sort=False):
             base = case.split("@")[0]
             st = _style(base, case.split("@")[1] if "@" in case else "paired")
-            ax.plot(g.lag_s, g.ratio, **st)
-            ax.fill_between(g.lag_s, g.ci_low, g.ci_high, color=st["color"], alpha=0.15, lw=0)
+            # the ratio is undefined where the sphere and clump MSDs cross: hide |gap| < 5 %
+            bad = (g.gap_rel.abs() < GAP_MIN).values if "gap_rel" in g else np.zeros(len(g), bool)
+            if bad.any():
+                cross = (g.lag_s.values[bad].min(), g.lag_s.values[bad].max())
+            y = np.where(bad, np.nan, g.ratio.values)
+            ax.plot(g.lag_s, y, **st)
+            ax.fill_between(g.lag_s, np.where(bad, np.nan, g.ci_low), np.where(bad, np.nan, g.ci_high),
+                            color=st["color"], alpha=0.12, lw=0)
             if rd is not None and (rd.case == case).any():
                 r = rd[rd.case == case].iloc[0]
                 ax.errorbar([g.lag_s.max() * 1.25], [r.ratio], yerr=[[r.ratio - r.ci_low], [r.ci_high - r.ratio]],
                             fmt="o", color=st["color"], capsize=3, ms=4)
+        if cross:
+            ax.axvspan(cross[0], cross[1], color="gray", alpha=0.2, lw=0)
+            ax.text(cross[0], -0.55, " spheres and clumps\n cross: ratio undefined", fontsize=7, color="dimgray")
         ax.axhline(0.10, color="gray", lw=1, ls="--")
         ax.text(ratio.lag_s.min(), 0.105, "paper: about 0.10", color="gray", fontsize=8)
         ax.axhline(0, color="k", lw=0.8)
         ax.set(xscale="log", xlabel="lag t (s)  (dots at right: same ratio for D)",
                ylabel="(MSD$_{case}$ - MSD$_{exact}$) / (MSD$_{spheres}$ - MSD$_{exact}$)",
                title="the paper's ratio, paired by seed, 95 % t-interval")
-        ax.set_ylim(-0.6, 0.6)
-        ax.legend(fontsize=7)
+        ax.set_ylim(-0.6, 0.8)
+        ax.legend(fontsize=7, loc="upper left")
         ax.grid(True, which="both", alpha=0.3)
         fig.tight_layout()
         fig.savefig(os.path.join(out, "ratio.png"), dpi=120)
