@@ -12,6 +12,11 @@ import subprocess
 import sys
 import time
 
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
+
 import numpy as np
 import pytest
 
