@@ -41,6 +41,12 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
     if extra:
         raise ValueError(f"method {method!r} takes no option(s) {sorted(extra)}; it accepts {sorted(allowed) or 'none'}")
     sph = _input.normalize(centers, radii)
+    # overflow (absurdly large input) is reported by finish() as a ValueError, not as a warning
+    with np.errstate(over="ignore"):
+        return _compute(sph, rho, method, options)
+
+
+def _compute(sph, rho, method, options):
     stderr = None
     if method == "pairwise":
         from .pairwise import pairwise_moments
