@@ -204,6 +204,13 @@ def _sphere_surface_moments(n, h, rho, rank):
     bound = R[:, :, None, :] * half
     covered = fm > bound
     unsure = np.abs(fm) <= bound
+    # the caps crossed at the arc's ends are decided combinatorially below: not here
+    has_split = (P > 0)[:, :, None] & arc_ok
+    jn = np.take_along_axis(jq, np.broadcast_to(nxt, jq.shape), axis=2)
+    tn = np.take_along_axis(tq, np.broadcast_to(nxt, tq.shape), axis=2)
+    for jsel in (jq, jn):
+        cur = np.take_along_axis(unsure, jsel[..., None], axis=3)[..., 0]
+        np.put_along_axis(unsure, jsel[..., None], (cur & ~has_split)[..., None], axis=3)
     if np.any(unsure):
         ci, ki, qi, ji = np.nonzero(unsure)
         mm, AA, BB, RR, ph = m[ci, ki, ji], A[ci, ki, ji], B[ci, ki, ji], R[ci, ki, ji], phi[ci, ki, ji]
@@ -219,9 +226,6 @@ def _sphere_surface_moments(n, h, rho, rank):
     # the caps crossed at the arc's two ends are decided by the crossing directions, the
     # same way on both circles of each crossing point, so the boundary of the union of caps
     # closes even where several circles pass (nearly) through one point
-    has_split = (P > 0)[:, :, None] & arc_ok
-    jn = np.take_along_axis(jq, np.broadcast_to(nxt, jq.shape), axis=2)
-    tn = np.take_along_axis(tq, np.broadcast_to(nxt, tq.shape), axis=2)
     for jsel, dec in ((jn, tn == -1), (jq, tq == 1)):
         cur = np.take_along_axis(covered, jsel[..., None], axis=3)[..., 0]
         np.put_along_axis(covered, jsel[..., None], np.where(has_split, dec, cur)[..., None], axis=3)
