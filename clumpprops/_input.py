@@ -124,7 +124,7 @@ def normalize(centers, radii) -> Spheres:
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     # origin: volume-weighted mean of sphere centres, accumulated relative to the first
     # sphere so that the sum involves only small numbers
-    r3 = r_all**3
+    r3 = r_all * r_all * r_all
     if N:
         c3 = c_all.reshape(M, N, 3)
         first = c3[:, 0, :]

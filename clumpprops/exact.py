@@ -248,10 +248,11 @@ def _sphere_surface_moments(n, h, rho, rank):
     Icc = 0.5 * Dt + 0.25 * sm(sin2)
     Iss = 0.5 * Dt - 0.25 * sm(sin2)
     Ics = 0.5 * sm(s2 * s2 - s1 * s1)
-    Iccc = sm((s2 - s2**3 / 3.0) - (s1 - s1**3 / 3.0))
-    Isss = sm((-c2 + c2**3 / 3.0) - (-c1 + c1**3 / 3.0))
-    Iccs = -sm(c2**3 - c1**3) / 3.0
-    Icss = sm(s2**3 - s1**3) / 3.0
+    s1c, s2c, c1c, c2c = s1 * s1 * s1, s2 * s2 * s2, c1 * c1 * c1, c2 * c2 * c2
+    Iccc = sm((s2 - s2c / 3.0) - (s1 - s1c / 3.0))
+    Isss = sm((-c2 + c2c / 3.0) - (-c1 + c1c / 3.0))
+    Iccs = -sm(c2c - c1c) / 3.0
+    Icss = sm(s2c - s1c) / 3.0
     W1s = np.stack([Dt, Ic, Is], axis=-1)  # (C,K,3)
     W2s = np.stack([np.stack([Dt, Ic, Is], -1), np.stack([Ic, Icc, Ics], -1), np.stack([Is, Ics, Iss], -1)], -2)
     W3s = np.empty((C, K, 3, 3, 3))
