@@ -405,7 +405,8 @@ def exact_moments(sph: Spheres):
     Qm = np.zeros((M, 3, 3))
     if np.any(whole):
         sub = np.flatnonzero(whole)
-        v = (4.0 / 3.0) * np.pi * sph.radii[sub] ** 3
+        rs = sph.radii[sub]
+        v = (4.0 / 3.0) * np.pi * rs * rs * rs  # as in sphere_moments, to the last bit
         c = sph.centers[sub]
         cl = sph.clump[sub]
         V += np.bincount(cl, weights=v, minlength=M)
