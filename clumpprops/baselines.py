@@ -131,30 +131,44 @@ def voxel_moments(sph: Spheres, discretization=10):
     un = r[:, :, None] + r[:, None, :] - dist
     real = (r[:, :, None] > 0) & (r[:, None, :] > 0) & ~np.eye(Nmax, dtype=bool)[None]
     inter = np.any(real & (un > 0.001 * np.minimum(r[:, :, None], r[:, None, :])), axis=(1, 2))
-    for m in np.flatnonzero(inter):
-        cm, rm = c[m, : sph.counts[m]], r[m, : sph.counts[m]]
-        lo = (cm - rm[:, None]).min(axis=0)
-        hi = (cm + rm[:, None]).max(axis=0)
-        dx = (hi - lo).min() / d
-        axes = [lo[k] + dx / 2 + dx * np.arange(int(np.ceil((hi[k] - lo[k]) / dx)) + 1) for k in range(3)]
-        axes = [a[a < hi[k]] for k, a in enumerate(axes)]
-        s = np.zeros(3)
-        q = np.zeros((3, 3))
-        cell = dx**3
-        # slab by slab along x keeps memory bounded
-        Y, Z = np.meshgrid(axes[1], axes[2], indexing="ij")
-        yz = np.stack([Y.ravel(), Z.ravel()], axis=1)
-        n_in = 0
-        for xv in axes[0]:
-            pts = np.column_stack([np.full(len(yz), xv), yz])
-            ins = np.any(np.sum((pts[:, None, :] - cm[None]) ** 2, axis=-1) < rm * rm, axis=1)
-            p = pts[ins]
-            n_in += len(p)
-            s += p.sum(axis=0)
-            q += p.T @ p
-        vol = n_in * cell
-        V[m] = vol
-        S[m] = cell * s
-        # each cell's own second moment dv dx^2/12 per axis (inertia m dx^2/6 per axis)
-        Q[m] = cell * q + np.eye(3) * (n_in * cell * dx * dx / 12.0)
+    idx = np.flatnonzero(inter)
+    if len(idx) == 0:
+        return V, S, Q
+    cm, rm = c[idx], r[idx]
+    real_s = rm > 0
+    lo = np.min(np.where(real_s[..., None], cm - rm[..., None], np.inf), axis=1)  # (Mi, 3)
+    hi = np.max(np.where(real_s[..., None], cm + rm[..., None], -np.inf), axis=1)
+    dx = (hi - lo).min(axis=1) / d  # (Mi,)
+    # cell centres lo + dx/2 + k dx < hi, k = 0, 1, ...
+    kmax = int(np.max(np.ceil((hi - lo) / dx[:, None]))) + 1
+    k = np.arange(kmax)
+    ax = lo[:, :, None] + dx[:, None, None] * (0.5 + k)  # (Mi, 3, kmax)
+    ok = ax < hi[:, :, None]
+    # slab by slab along x, vectorised over clumps and (y, z) cells; memory bounded by chunks
+    per = max(1, 4_000_000 // (kmax * kmax * Nmax))
+    n_in = np.zeros(len(idx))
+    s1 = np.zeros((len(idx), 3))
+    s2 = np.zeros((len(idx), 3, 3))
+    for g0 in range(0, len(idx), per):
+        g = slice(g0, g0 + per)
+        Y = np.broadcast_to(ax[g, 1, :, None], ax[g, 1].shape + (kmax,))
+        Z = np.broadcast_to(ax[g, 2, None, :], ax[g, 2].shape[:1] + (kmax, kmax))
+        yz_ok = (ok[g, 1, :, None] & ok[g, 2, None, :]).reshape(len(Y), -1)
+        yz = np.stack([Y.reshape(len(Y), -1), Z.reshape(len(Y), -1)], axis=-1)  # (Mc, kmax^2, 2)
+        cc, rr = cm[g], rm[g]
+        for i in range(kmax):
+            xi = ax[g, 0, i]
+            pts = np.concatenate([np.broadcast_to(xi[:, None, None], yz.shape[:2] + (1,)), yz], axis=-1)
+            d2 = np.sum((pts[:, :, None, :] - cc[:, None, :, :]) ** 2, axis=-1)
+            ins = np.any(d2 < (rr * rr)[:, None, :], axis=-1) & yz_ok & ok[g, 0, i][:, None]
+            w = ins.astype(float)
+            n_in[g] += w.sum(axis=1)
+            pw = pts * w[..., None]
+            s1[g] += pw.sum(axis=1)
+            s2[g] += np.einsum("mpx,mpy->mxy", pw, pts)
+    cell = dx**3
+    V[idx] = n_in * cell
+    S[idx] = cell[:, None] * s1
+    # each cell's own second moment dv dx^2/12 per axis (inertia m dx^2/6 per axis)
+    Q[idx] = cell[:, None, None] * s2 + np.eye(3)[None] * (n_in * cell * dx * dx / 12.0)[:, None, None]
     return V, S, Q
