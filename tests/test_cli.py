@@ -36,16 +36,7 @@ def run(*args, stdin=None, cwd=ROOT):
     )
 
 
-def _method_works(method):
-    try:
-        mass_properties([[0, 0, 0], [1, 0, 0]], [1.0, 0.8], method=method)
-    except (ImportError, NotImplementedError):
-        return False
-    return True
 
-
-def _m(name):
-    return pytest.param(name, marks=pytest.mark.skipif(not _method_works(name), reason=f"method {name!r} not available yet"))
 
 
 DIMER = """#format x_y_z_r_clumpId
@@ -136,7 +127,7 @@ EX_CENTERS = [
 EX_RADII = [np.array([0.06665, 0.06665]), np.array([0.05, 0.04, 0.03])]
 
 
-@pytest.mark.parametrize("method", ["pairwise", "sum", _m("exact")])
+@pytest.mark.parametrize("method", ["pairwise", "sum", "exact"])
 def test_csv_matches_library(method):
     out = run(EXAMPLE, "--method", method, "--density", "1140", "--format", "csv")
     assert out.returncode == 0, out.stderr
@@ -185,9 +176,6 @@ def test_json_has_full_tensor_and_units(tmpfile):
 
 def test_default_method_and_density():
     out = run(EXAMPLE, "--format", "json")
-    if not _method_works(clumpprops.DEFAULT_METHOD):
-        assert out.returncode == 1 and "not available" in out.stderr
-        return
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert doc["method"] == clumpprops.DEFAULT_METHOD
@@ -212,7 +200,7 @@ def test_repeated_id_warns_and_starts_a_new_clump(tmpfile):
     assert [r["id"] for r in csv.DictReader(io.StringIO(out.stdout))] == ["0", "1", "0"]
 
 
-@pytest.mark.parametrize("method", [_m("montecarlo")])
+@pytest.mark.parametrize("method", ["montecarlo"])
 def test_montecarlo_options_are_passed(method):
     a = run(EXAMPLE, "--method", method, "--samples", "20000", "--seed", "3", "--format", "json")
     b = run(EXAMPLE, "--method", method, "--samples", "20000", "--seed", "3", "--format", "json")
@@ -224,7 +212,7 @@ def test_montecarlo_options_are_passed(method):
     assert "mass_standard_error" in da["clumps"][0]
 
 
-@pytest.mark.parametrize("method", [_m("voxel")])
+@pytest.mark.parametrize("method", ["voxel"])
 def test_voxel_discretization_is_passed(method):
     out = run(EXAMPLE, "--method", method, "--discretization", "12", "--format", "csv")
     assert out.returncode == 0, out.stderr
@@ -264,7 +252,7 @@ def test_triple_overlap_with_pairwise_names_clump_and_lines(tmpfile):
     _one_line_error(run(p, "--method", "pairwise"), "clump id 4", "lines 2-4", "triple overlap")
 
 
-@pytest.mark.parametrize("method", [_m("exact")])
+@pytest.mark.parametrize("method", ["exact"])
 def test_triple_overlap_is_fine_for_exact(tmpfile, method):
     p = tmpfile("0 0 0 1 4\n1 0 0 1 4\n0.5 0.8 0 1 4\n")
     out = run(p, "--method", method)

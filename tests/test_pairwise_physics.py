@@ -21,17 +21,8 @@ from clumpprops import ClumpGeometryError, mass_properties
 import _clump_reference as ref
 
 
-def _method_works(method):
-    try:
-        mass_properties([[0, 0, 0], [1, 0, 0]], [1.0, 0.8], method=method)
-    except (ImportError, NotImplementedError):
-        return False
-    return True
 
-
-EXACT = pytest.param(
-    "exact", marks=pytest.mark.skipif(not _method_works("exact"), reason="clumpprops.exact not available yet")
-)
+EXACT = "exact"
 UNION_METHODS = ["pairwise", EXACT]
 
 

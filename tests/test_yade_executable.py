@@ -15,7 +15,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 YADE = shutil.which("yade")
-pytestmark = pytest.mark.skipif(YADE is None, reason="yade executable not installed")
+assert YADE is not None, "the yade executable is missing: run scripts/setup.sh"
 
 SCRIPT = r'''
 import os, sys, json
