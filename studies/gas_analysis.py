@@ -15,6 +15,7 @@ ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
                        where the sphere and clump curves cross, gap_rel ~ 0)
 ratio_D.csv            the same ratio for the diffusion coefficients
 diff_D.csv             D_case - D_exact paired by seed, with a t-interval (absolute and relative)
+protocol_effect.csv    D_equal_energy / D_paired of a case, paired by seed, vs sqrt(m_exact / m)
 diffusion_sensitivity.csv  D and D - D_exact for other equilibration cuts / fit windows
 energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
 energy_equal_energy.csv  the same for the equal-energy runs
@@ -185,6 +186,20 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
                ["case", "protocol", "n_seeds", "d_minus_d_exact", "ci_low", "ci_high", "stderr",
                 "relative", "relative_ci_low", "relative_ci_high"], drows)
 
+    # ---- protocol effect: D_equal_energy / D_paired of the same case, paired by seed ----
+    perows = []
+    for (case, prot), seeds in per.items():
+        if prot != "equal_energy" or (case, "paired") not in per:
+            continue
+        pp = per[(case, "paired")]
+        common = sorted(set(seeds) & set(pp))
+        m, lo, hi, se, n = t_interval([seeds[k][2] / pp[k][2] for k in common])
+        perows.append([case, n, m, lo, hi, float(np.sqrt(m_exact / masses[case]))])
+    if perows:
+        _write_csv(os.path.join(out, "protocol_effect.csv"),
+                   ["case", "n_seeds", "d_equal_energy_over_d_paired", "ci_low", "ci_high",
+                    "hard_particle_prediction"], perows)
+
     # ---- sensitivity of D to the equilibration cut and the fit window ----
     srows = []
     for t_eq, lo, hi in cfg.get("sensitivity", []):
@@ -307,6 +322,9 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
     for r in drows:
         log(f"[analyze]   D[{label(r[0], r[1])}] - D[exact] = {r[3]:+.4f} m^2/s  95% CI [{r[4]:+.4f}, {r[5]:+.4f}] "
             f"({100 * r[7]:+.2f} %, n={r[2]} paired seeds)")
+    for r in perows:
+        log(f"[analyze]   D[{r[0]}@equal_energy] / D[{r[0]}] = {r[2]:.4f}  95% CI [{r[3]:.4f}, {r[4]:.4f}] "
+            f"(hard-particle scaling sqrt(m_exact/m) = {r[5]:.4f}, n={r[1]})")
     for r in rdrows:
         log(f"[analyze]   ratio_D[{r[0]}] = {r[2]:.3f}  95% CI [{r[3]:.3f}, {r[4]:.3f}] (n={r[1]})")
     return params

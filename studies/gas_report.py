@@ -45,6 +45,14 @@ def report(out):
     lines.append("|---|---|---|---|")
     for row in r.itertuples():
         lines.append(f"| {row.case} | {row.n_seeds} | {row.ratio:+.3f} | [{row.ci_low:+.3f}, {row.ci_high:+.3f}] |")
+    pe = os.path.join(out, "protocol_effect.csv")
+    if os.path.exists(pe):
+        lines.append("")
+        lines.append("| protocol effect: D_equal_energy / D_paired (same case, paired by seed) | seeds | ratio | 95 % CI | hard-particle scaling sqrt(m_exact/m) |")
+        lines.append("|---|---|---|---|---|")
+        for row in pd.read_csv(pe).itertuples():
+            lines.append(f"| {row.case} | {row.n_seeds} | {row.d_equal_energy_over_d_paired:.4f} | "
+                         f"[{row.ci_low:.4f}, {row.ci_high:.4f}] | {row.hard_particle_prediction:.4f} |")
     lines.append("")
     lines.append(f"Energy drift over all {len(runs)} runs: max {runs.energy_drift.max():.1e}, median "
                  f"{runs.energy_drift.median():.1e}; momentum drift max {runs.momentum_drift.max():.1e}; "
