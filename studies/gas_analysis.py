@@ -9,6 +9,7 @@ protocols.csv          the same for every (case, protocol) plus the hard-particl
                        equal-energy D from the paired one
 runs.csv               every run: flags, drifts, per-seed D; failed runs are listed, never used
 msd.csv                case, protocol, lag_s, msd_mean, msd_stderr, n_seeds (log-spaced lags)
+msd_relative.csv       case, protocol, lag_s, rel_diff = MSD_case / MSD_exact - 1 (paired by seed), CI
 ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
                        (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact), paired by seed;
                        gap_rel = (MSD_spheres - MSD_exact) / MSD_exact (the ratio is undefined
@@ -229,6 +230,26 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
         for i in idx:
             mrows.append([case, prot, float(lag[i]), float(mean[i]), float(se[i]), len(M)])
     _write_csv(os.path.join(out, "msd.csv"), ["case", "protocol", "lag_s", "msd_mean", "msd_stderr", "n_seeds"], mrows)
+
+    # ---- MSD relative to the exact clumps, paired by seed ----
+    mdrows = []
+    ex = per.get(("exact", "paired"), {})
+    for (case, prot), seeds in per.items():
+        if case == "exact" and prot == "paired":
+            continue
+        common = sorted(set(seeds) & set(ex))
+        if not common:
+            continue
+        n = min([len(seeds[k][0]) for k in common] + [len(ex[k][0]) for k in common])
+        lag = ex[common[0]][0][:n]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            Q = np.array([seeds[k][1][:n] / ex[k][1][:n] - 1 for k in common])
+        idx = np.unique(np.round(np.geomspace(1, n - 1, 120)).astype(int))
+        for i in idx:
+            m, lo, hi, se, nn = t_interval(Q[:, i])
+            mdrows.append([case, prot, float(lag[i]), m, lo, hi, nn])
+    _write_csv(os.path.join(out, "msd_relative.csv"),
+               ["case", "protocol", "lag_s", "rel_diff", "ci_low", "ci_high", "n_seeds"], mdrows)
 
     # ---- the paper's ratio, paired by seed ----
     rrows, rdrows = [], []
