@@ -146,7 +146,7 @@ def plot_all(out, log=print):
         ax.set(xlabel="t (s)  (linear below 1 s)", ylabel="share of total energy (seed mean)",
                title="energy partition (upper: translational, lower: rotational)")
         ax.set_ylim(-0.02, 1.02)
-        ax.legend(fontsize=7, loc="center right")
+        ax.legend(fontsize=6, loc="center", bbox_to_anchor=(0.62, 0.5), ncol=2, framealpha=0.9)
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
         fig.savefig(os.path.join(out, "energy_partition.png"), dpi=120)

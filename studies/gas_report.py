@@ -58,8 +58,8 @@ def report(out):
                  f"{runs.energy_drift.median():.1e}; momentum drift max {runs.momentum_drift.max():.1e}; "
                  f"{int((~runs.ok.astype(bool)).sum())} runs flagged.")
     if p.get("wall_sweep_s"):
-        lines.append(f"Wall time of the sweep: {p['wall_sweep_s'] / 60:.0f} min; sum of run wall times "
-                     f"{p['wall_run_s_total'] / 60:.0f} min (2 processes side by side).")
+        lines.append(f"Wall time of the last `run` invocation: {p['wall_sweep_s'] / 60:.0f} min; sum of the wall "
+                     f"times of all {p['n_runs']} runs: {p['wall_run_s_total'] / 60:.0f} min (2 processes side by side).")
     return "\n".join(lines)
 
 
