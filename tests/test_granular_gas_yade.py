@@ -25,7 +25,7 @@ from studies.msd import msd_fft
 
 ROOT = gm.repo_root()
 SCRIPT = os.path.join(ROOT, "yade_scripts", "granular_gas.py")
-pytestmark = pytest.mark.skipif(shutil.which("yade") is None, reason="yade not installed")
+assert shutil.which("yade"), "the yade executable is missing: run scripts/setup.sh"
 
 
 def run_yade(tmp, name, **params):
