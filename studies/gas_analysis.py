@@ -43,6 +43,17 @@ from .msd import msd_fft
 ENERGY_STRIDE_S = 1.0      # energy.csv sampling (s); the runs record every rec_interval
 
 
+def _paired_with_exact(per):
+    """(case, protocol, runs, exact runs, seeds both have) for every case except exact/paired itself."""
+    ex = per.get(("exact", "paired"), {})
+    for (case, prot), seeds in per.items():
+        if case == "exact" and prot == "paired":
+            continue
+        common = sorted(set(seeds) & set(ex))
+        if common:
+            yield case, prot, seeds, ex, common
+
+
 def t_interval(x, conf=0.95):
     """(mean, low, high, stderr, n) of a sample with a Student-t interval."""
     from scipy import stats
@@ -172,13 +183,7 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
 
     # ---- D differences from the exact clumps, paired by seed ----
     drows = []
-    ex = per.get(("exact", "paired"), {})
-    for (case, prot), seeds in per.items():
-        if case == "exact" and prot == "paired":
-            continue
-        common = sorted(set(seeds) & set(ex))
-        if not common:
-            continue
+    for case, prot, seeds, ex, common in _paired_with_exact(per):
         diff = [seeds[k][2] - ex[k][2] for k in common]
         m, lo, hi, se, n = t_interval(diff)
         dex = float(np.mean([ex[k][2] for k in common]))
@@ -233,13 +238,7 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
 
     # ---- MSD relative to the exact clumps, paired by seed ----
     mdrows = []
-    ex = per.get(("exact", "paired"), {})
-    for (case, prot), seeds in per.items():
-        if case == "exact" and prot == "paired":
-            continue
-        common = sorted(set(seeds) & set(ex))
-        if not common:
-            continue
+    for case, prot, seeds, ex, common in _paired_with_exact(per):
         n = min([len(seeds[k][0]) for k in common] + [len(ex[k][0]) for k in common])
         lag = ex[common[0]][0][:n]
         with np.errstate(invalid="ignore", divide="ignore"):
