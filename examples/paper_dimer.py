@@ -26,8 +26,9 @@ print("Paper's dimer: d = 0.1333 m, D = d/2, rho = 1140 kg/m^3")
 print(f"{'method':>12} {'mass [kg]':>12} {'I_axial [kg m^2]':>18} {'I_perp [kg m^2]':>17} {'mass err':>9} {'I_ax err':>9} {'I_perp err':>10}")
 for name, mp in [("exact", exact), ("pairwise", pairwise), ("sum", summed), ("montecarlo", mc), ("voxel d=10", voxel)]:
     I = mp.principal_moments
-    e = mp.mass / exact.mass - 1
-    ea, ep = I[0] / exact.principal_moments[0] - 1, I[2] / exact.principal_moments[2] - 1
+    # relative errors, rounded so that round-off prints as +0.00 % rather than -0.00 %
+    e, ea, ep = (round(x - 1, 9) + 0.0 for x in (mp.mass / exact.mass, I[0] / exact.principal_moments[0],
+                                                I[2] / exact.principal_moments[2]))
     print(f"{name:>12} {mp.mass:12.6f} {I[0]:18.6e} {I[2]:17.6e} {e:+9.2%} {ea:+9.2%} {ep:+10.2%}")
 print(f"\nexact centre of mass {exact.center_of_mass} m; principal axes (columns):\n{exact.principal_axes}")
 print(f"montecarlo 1-sigma standard error of the mass: {mc.standard_error.mass:.2e} kg")
