@@ -35,6 +35,26 @@ class Spheres:
     counts: np.ndarray  # (M,) number of spheres per clump
     starts: np.ndarray  # (M,) index of each clump's first sphere (spheres are grouped by clump)
     regular: int  # N if every clump has N spheres, else 0
+    first_clump: int = 0  # index of clump 0 in the caller's batch (for messages)
+
+    def clumps(self, m0: int, m1: int) -> "Spheres":
+        """The clumps m0 .. m1-1 as their own Spheres (views where possible)."""
+        m1 = min(m1, self.n_clumps)
+        s0 = int(self.starts[m0])
+        s1 = int(self.starts[m1]) if m1 < self.n_clumps else len(self.radii)
+        return Spheres(
+            centers=self.centers[s0:s1],
+            radii=self.radii[s0:s1],
+            clump=self.clump[s0:s1] - m0,
+            n_clumps=m1 - m0,
+            origin=self.origin[m0:m1],
+            local=self.local[s0:s1],
+            batched=self.batched,
+            counts=self.counts[m0:m1],
+            starts=self.starts[m0:m1] - s0,
+            regular=self.regular,
+            first_clump=self.first_clump + m0,
+        )
 
 
 def _as_float_array(x, name):

@@ -158,7 +158,7 @@ def check_no_triple_overlap(sph: Spheres, a, b, D, e):
     bad = dist < sph.radii[ii]
     if np.any(bad):
         t = np.flatnonzero(bad)[0]
-        m = int(sph.clump[ii[t]])
+        m = int(sph.clump[ii[t]]) + sph.first_clump
         idx = sorted(int(sph.local[x]) for x in (ii[t], jj[t], kk[t]))
         where = f" of clump {m}" if sph.batched else ""
         n_bad = int(np.count_nonzero(bad))
