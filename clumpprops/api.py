@@ -57,7 +57,6 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
 
 
 def _compute(sph, rho, method, options):
-    stderr = None
     if method == "pairwise":
         from .pairwise import pairwise_moments
 
@@ -78,4 +77,4 @@ def _compute(sph, rho, method, options):
         from .baselines import voxel_moments
 
         V, S, Q = voxel_moments(sph, **options)
-    return finish(V, S, Q, sph.origin, rho, method, sph.batched, stderr)
+    return finish(V, S, Q, sph.origin, rho, method, sph.batched)

@@ -133,7 +133,6 @@ def _sphere_surface_moments(n, h, rho, rank):
     Returns a (C,), m1 (C,3), m2 (C,3,3), m3 (C,3,3,3).
     """
     C, K = h.shape
-    valid = np.ones((C, K), bool)
     e1, e2 = _basis(n)
     # --- circle k against cap j: f_kj(t) = u_k(t).n_j - h_j = m_kj + R_kj cos(t - phi_kj)
     g = np.einsum("ckx,cjx->ckj", n, n)
@@ -142,7 +141,7 @@ def _sphere_surface_moments(n, h, rho, rank):
     R = np.hypot(A, B)
     phi = np.arctan2(B, A)
     m = h[:, :, None] * g - h[:, None, :]
-    pair = valid[:, :, None] & valid[:, None, :] & ~np.eye(K, dtype=bool)[None]
+    pair = np.broadcast_to(~np.eye(K, dtype=bool), (C, K, K))
     with np.errstate(divide="ignore", invalid="ignore"):
         cosarg = -m / R
     crosses = pair & (R > 0) & (np.abs(cosarg) < 1.0)
@@ -189,7 +188,7 @@ def _sphere_surface_moments(n, h, rho, rank):
     full = P == 0
     t1 = np.where(full[:, :, None], 0.0, t1)
     t2 = np.where(full[:, :, None], two_pi, t2)
-    arc_ok = valid[:, :, None] & ((idx[None, None, :] < P[:, :, None]) | (full[:, :, None] & (idx == 0)))
+    arc_ok = (idx[None, None, :] < P[:, :, None]) | (full[:, :, None] & (idx == 0))
     t1 = np.where(arc_ok, t1, 0.0)
     t2 = np.where(arc_ok, t2, 0.0)
     # --- coverage of each arc by each other cap j.  f_j has no zero inside the arc (its
@@ -274,7 +273,6 @@ def _sphere_surface_moments(n, h, rho, rank):
     qn = np.einsum("px,ckx->cpk", poles, n)  # (C,P,K)
     alpha = np.arctan2(rho, h)  # angular radius of each cap
     dist = np.abs(np.arccos(np.clip(-qn, -1.0, 1.0)) - alpha[:, None, :])
-    dist = np.where(valid[:, None, :], dist, np.inf)
     best_pole = np.argmax(dist.min(axis=2), axis=1)
     q = poles[best_pole]  # (C,3)
     qn = np.einsum("cx,ckx->ck", q, n)
@@ -293,7 +291,7 @@ def _sphere_surface_moments(n, h, rho, rank):
         return x + np.arctan2((k - 1.0) * sx * cx, cx * cx + k * sx * sx)
 
     arcA = -h[..., None] * dt + 2.0 * sg[..., None] * np.where(exposed, G(t2) - G(t1), 0.0)
-    in_U = np.any(valid & (-qn > h), axis=1)
+    in_U = np.any(-qn > h, axis=1)
     area_U = arcA.sum(axis=(1, 2)) + _FOUR_PI * in_U
     a = _FOUR_PI - area_U
     m1 = 0.5 * J1
