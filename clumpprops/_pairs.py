@@ -53,12 +53,14 @@ def overlapping_pairs(sph: Spheres):
     Returns a, b (P,), D (P,), e (P, 3); e is (0, 0, 1) where D == 0 (concentric spheres).
     """
     a, b = candidate_pairs(sph)
-    dv = sph.centers[b] - sph.centers[a]
-    D = np.sqrt(np.einsum("ij,ij->i", dv, dv))
+    D, e = distance_and_axis(sph.centers[b] - sph.centers[a])
     keep = D < sph.radii[a] + sph.radii[b]
-    a, b, dv, D = a[keep], b[keep], dv[keep], D[keep]
-    e = np.zeros_like(dv)
-    nz = D > 0
-    e[nz] = dv[nz] / D[nz, None]
-    e[~nz] = (0.0, 0.0, 1.0)
-    return a, b, D, e
+    return a[keep], b[keep], D[keep], e[keep]
+
+
+def distance_and_axis(dv):
+    """|dv| (P,) and the unit vector dv/|dv| (P,3); (0, 0, 1) where dv == 0 (concentric spheres)."""
+    D = np.sqrt(np.einsum("ij,ij->i", dv, dv))
+    e = dv / np.where(D > 0, D, 1.0)[:, None]
+    e[D == 0] = (0.0, 0.0, 1.0)
+    return D, e

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._input import Spheres, _rowsum, segment_sum
-from ._pairs import overlapping_pairs
+from ._pairs import distance_and_axis, overlapping_pairs
 
 
 class ClumpGeometryError(ValueError):
@@ -215,11 +215,8 @@ def pairwise_moments(sph: Spheres, check=True):
         r2 = sph.radii.reshape(M, N)
         ca, cb = c3[:, iu].reshape(-1, 3), c3[:, ju].reshape(-1, 3)
         ra, rb = r2[:, iu].ravel(), r2[:, ju].ravel()
-        dv = cb - ca
-        D = np.sqrt(np.einsum("ij,ij->i", dv, dv))
+        D, e = distance_and_axis(cb - ca)
         ov = D < ra + rb
-        e = dv / np.where(D > 0, D, 1.0)[:, None]
-        e[D == 0] = (0.0, 0.0, 1.0)
         Vl, pos, sig_t, sig_ax = lens_moments(ra, rb, ca, cb, np.where(ov, D, ra + rb), e)
         Vl = np.where(ov, Vl, 0.0)
         sig_t = np.where(ov, sig_t, 0.0)
