@@ -31,7 +31,7 @@ in_root() {
   # run "$@" chrooted into ROOT with /dev, /proc, /sys, /tmp and the repository mounted, in a
   # private mount namespace (nothing stays mounted afterwards)
   local wd="${WORKDIR:-/repo}"
-  unshare -m --propagation private bash -s "$ROOT" "$REPO" "$wd" "$@" <<'EOS'
+  ${EXEC:-} unshare -m --propagation private bash -s "$ROOT" "$REPO" "$wd" "$@" <<'EOS'
 set -e
 ROOT="$1"; REPO="$2"; WD="$3"; shift 3
 mount --rbind /dev "$ROOT/dev"
@@ -71,6 +71,6 @@ case "${1:-}" in
   build) build ;;
   path) echo "$ROOT" ;;
   run) shift; need_root; [ -f "$STAMP" ] || { echo "[debian13] no root at $ROOT: run scripts/debian13.sh build" >&2; exit 1; }
-       in_root "$@" ;;
+       EXEC=exec in_root "$@" ;;   # exec all the way down: a signal to this process reaches YADE
   *) sed -n '2,12p' "$0"; exit 2 ;;
 esac

@@ -1,25 +1,39 @@
-"""The paper's periodic granular gas: parameters, cases, initial conditions, energies.
+"""The periodic granular gas of the studies: cases, initial conditions, energies (any clump shape).
 
-Pure numpy (no YADE import), shared by the YADE script ``yade_scripts/granular_gas.py``,
-the driver/analysis in :mod:`studies.granular_gas` and the tests.
+Pure numpy (no YADE).  The driver resolves one run of a study spec with these functions and
+hands the YADE script everything it needs (member spheres, masses, inertia, initial state) in
+one JSON file, so the script knows nothing of specs, shapes or the driver.
 
-Set-up (Parteli, DISCUSSION section): two equal spheres of diameter d_s = 0.1333 m with
-centres D = d_s/2 apart, density 1140 kg/m^3, E = 1e7 Pa, nu = 0.40, 864 particles in a
-cubic periodic box at volume fraction 0.001 of the exact clump volume, total kinetic
-energy 3.24 kJ, Hertz-Mindlin normal force only, no damping.  Reference gas: spheres of
-diameter 0.20 m whose mass is set to the exact clump mass.
+The paper's gas (Parteli, DISCUSSION section): two equal spheres of diameter d_s = 0.1333 m
+with centres D = d_s/2 apart, density 1140 kg/m^3, E = 1e7 Pa, nu = 0.40, 864 particles in a
+cubic periodic box at volume fraction 0.001 of the exact clump volume, translational kinetic
+energy 3.24 kJ, zero spin, Hertz-Mindlin normal force only, no damping.  Reference gas:
+spheres of diameter 0.20 m whose mass is set to the exact clump mass.
 
-Every mass, moment of inertia and volume below comes from :func:`clumpprops.mass_properties`.
+Cases (defined for any shape; masses and inertia from :func:`clumpprops.mass_properties`):
+
+=============  ======================  =====================================================
+case           mass                    centre of mass and inertia tensor
+=============  ======================  =====================================================
+exact          union of the spheres    union (clumpprops.yade clumps)
+uncorrected    summed spheres          summed spheres (YADE's appendClumped)
+mass_only      union                   summed spheres
+inertia_only   summed spheres          union
+spheres        ``[spheres] mass``      a sphere of ``[spheres] diameter`` (no torque ever)
+=============  ======================  =====================================================
+
+Rotation: a *linear* clump (all centres on one line) with frictionless contacts and zero spin
+about its axis moves exactly like a body of isotropic inertia I_perp (every contact force passes
+through the axis), so it runs as YADE's non-aspherical body on any YADE; its rotational
+degrees of freedom are 2.  Any other clump is a full aspherical rigid body (3 rotational
+degrees of freedom) and needs a YADE with a conservative aspherical integrator (>= 2025,
+``rotAlgorithm='delValle2023'``).
 """
 from __future__ import annotations
 
-import functools
-import hashlib
-import os
-
 import numpy as np
 
-# ---- the paper's numbers -------------------------------------------------------------
+# ---- the paper's numbers (defaults of the specs and the tests) -------------------------------
 D_SPHERE = 0.1333            # m, diameter of a clump member
 R_SPHERE = D_SPHERE / 2      # m
 CENTRE_DISTANCE = D_SPHERE / 2   # m, D = d_s / 2
@@ -31,97 +45,143 @@ N_PAPER = 864
 VOLUME_FRACTION = 0.001
 KINETIC_ENERGY_PAPER = 3240.0            # J, whole gas of 864
 ENERGY_PER_PARTICLE = KINETIC_ENERGY_PAPER / N_PAPER   # 3.75 J
+PAPER_DIMER = {"kind": "dimer", "sphere_diameter": D_SPHERE, "overlap": 0.5}
 
-# half-length of the dimer = D/2 + d_s/2 = 0.1 m = radius of the reference sphere, so one
-# exclusion radius serves every case when placing particles
-BOUNDING_RADIUS = max(CENTRE_DISTANCE / 2 + R_SPHERE, D_BIG / 2)
-
-# case -> (shape, mass source, inertia source); "exact"/"sum" are clumpprops methods
-CASES = {
-    "exact": ("dimer", "exact", "exact"),
-    "uncorrected": ("dimer", "sum", "sum"),
-    "mass_only": ("dimer", "exact", "sum"),
-    "inertia_only": ("dimer", "sum", "exact"),
-    "spheres": ("sphere", "exact", None),
+CASES = ("exact", "uncorrected", "mass_only", "inertia_only", "spheres")
+# case -> (mass source, COM/inertia source); "exact" = union, "sum" = summed spheres
+CASE_SOURCES = {
+    "exact": ("exact", "exact"),
+    "uncorrected": ("sum", "sum"),
+    "mass_only": ("exact", "sum"),
+    "inertia_only": ("sum", "exact"),
 }
 PROTOCOLS = ("paired", "equal_energy")
+STARTS = ("zero_spin", "equipartition")
 
 
-def dimer_members(axis=(0.0, 0.0, 1.0)):
-    """Member centres (2, 3) relative to the dimer centre, and radii (2,)."""
-    u = np.asarray(axis, float)
-    u = u / np.linalg.norm(u)
-    h = CENTRE_DISTANCE / 2
-    return np.array([-h * u, h * u]), np.array([R_SPHERE, R_SPHERE])
-
-
-@functools.lru_cache(maxsize=None)
 def dimer_properties(method: str):
-    """(mass kg, volume m^3, I_axial, I_perp kg m^2, method actually used) of the dimer.
+    """(mass kg, volume m^3, I_axial, I_perp kg m^2, method) of the paper's dimer (tests)."""
+    from . import shapes
 
-    ``method="exact"`` falls back to the paper's ``"pairwise"`` (identical for two
-    spheres) while the exact module is not available.
+    p = shapes.properties(PAPER_DIMER, DENSITY)[method if method != "pairwise" else "exact"]
+    pm = p["principal_moments"]
+    return p["mass"], p["volume"], pm[0], pm[2], method
+
+
+def resolve_case(props, case, spheres=None):
+    """Body of one case: what the YADE script builds and which mass and inertia it gets.
+
+    ``props``: :func:`studies.shapes.properties` of the shape; ``spheres``: the spec's
+    ``[spheres]`` table (``diameter`` in m or ``"equal_volume"``; ``mass`` ``"exact"`` (the
+    exact clump mass) or ``"density"`` (the sphere's own volume x density)) with ``density``.
+
+    Returns a dict: ``body`` ("clump" | "sphere"); ``mass`` kg; ``moments`` (3,) kg m^2 (the
+    principal moments the body integrates with; isotropic for linear clumps and spheres);
+    ``route`` ("isotropic" | "aspherical"); ``builder`` ("appendClumped" | "clumpprops");
+    ``rot_dof`` (0, 2 or 3); ``radius`` (spheres only).
     """
-    import clumpprops
-
-    c, r = dimer_members()
-    used = method
-    try:
-        mp = clumpprops.mass_properties(c, r, density=DENSITY, method=method)
-    except (ImportError, ModuleNotFoundError):
-        if method != "exact":
-            raise
-        used = "pairwise"
-        mp = clumpprops.mass_properties(c, r, density=DENSITY, method="pairwise")
-    pm = np.asarray(mp.principal_moments, float)    # ascending: axial, perp, perp
-    if not np.isclose(pm[1], pm[2], rtol=1e-12):
-        raise AssertionError(f"dimer is not axisymmetric: {pm}")
-    return float(mp.mass), float(mp.volume), float(pm[0]), float(pm[2]), used
-
-
-def case_properties(case: str):
-    """Dict with shape, mass, inertia (isotropic, kg m^2) and the member layout of a case."""
     if case not in CASES:
         raise ValueError(f"unknown case {case!r}; choose from {', '.join(CASES)}")
-    shape, msrc, isrc = CASES[case]
-    m_exact, v_exact, _, ip_exact, used = dimer_properties("exact")
-    mass = dimer_properties(msrc)[0]
-    if shape == "dimer":
-        inertia = dimer_properties(isrc)[3]
-        radius = R_SPHERE
+    ex = props["exact"]
+    if case == "spheres":
+        sp = spheres or {}
+        dia = sp.get("diameter", "equal_volume")
+        if dia == "equal_volume":
+            dia = 2.0 * (3.0 * ex["volume"] / (4.0 * np.pi)) ** (1.0 / 3.0)
+        dia = float(dia)
+        msrc = sp.get("mass", "exact")
+        mass = ex["mass"] if msrc == "exact" else float(sp["density"]) * np.pi / 6.0 * dia ** 3
+        i0 = 0.4 * mass * (dia / 2) ** 2
+        return {"case": case, "body": "sphere", "mass": float(mass), "moments": [i0, i0, i0],
+                "route": "isotropic", "builder": "sphere", "rot_dof": 0, "radius": dia / 2,
+                "mass_source": msrc, "inertia_source": None}
+    msrc, isrc = CASE_SOURCES[case]
+    mass = props[msrc]["mass"]
+    pm = props[isrc]["principal_moments"]
+    com_shift = np.linalg.norm(np.asarray(props["sum"]["com"])) / max(props["radii"])
+    if props["linear"]:
+        i_perp = pm[2]
+        moments = [i_perp] * 3
+        route, dof = "isotropic", 2
+        # no correction bodies for the isotropic route: appendClumped gives the members and the
+        # summed COM, which is the exact one for symmetric clumps; else clumpprops places it
+        builder = "clumpprops" if (isrc == "exact" and com_shift > 1e-12) else "appendClumped"
     else:
-        radius = D_BIG / 2
-        inertia = 0.4 * mass * radius ** 2      # never used (no torque), kept physical
-    return {"case": case, "shape": shape, "mass": mass, "inertia": inertia,
-            "radius": radius, "mass_method": msrc, "inertia_method": isrc,
-            "exact_method_used": used}
+        moments = list(pm)
+        route, dof = "aspherical", 3
+        builder = "clumpprops" if isrc == "exact" else "appendClumped"
+    return {"case": case, "body": "clump", "mass": float(mass), "moments": [float(x) for x in moments],
+            "route": route, "builder": builder, "rot_dof": dof, "mass_source": msrc,
+            "inertia_source": isrc}
 
 
-def box_length(n_particles: int, volume_fraction: float = VOLUME_FRACTION) -> float:
-    """Cubic box edge so that n exact clumps fill ``volume_fraction`` of it (m)."""
-    v = dimer_properties("exact")[1]
-    return float((n_particles * v / volume_fraction) ** (1.0 / 3.0))
+def box_length(n_particles, exact_volume, volume_fraction=VOLUME_FRACTION):
+    """Cubic box edge (m) so that n exact clumps fill ``volume_fraction`` of it."""
+    return float((n_particles * exact_volume / volume_fraction) ** (1.0 / 3.0))
 
 
-def effective_protocol(case: str, protocol: str) -> str:
-    """``equal_energy`` only differs from ``paired`` for cases whose mass is not exact."""
+def effective_protocol(case_res, exact_mass, protocol):
+    """``equal_energy`` differs from ``paired`` only for a case whose mass is not the exact one."""
     if protocol not in PROTOCOLS:
         raise ValueError(f"unknown protocol {protocol!r}")
-    return "paired" if CASES[case][1] == "exact" else protocol
+    return "paired" if case_res["mass"] == exact_mass and case_res["body"] == "clump" and \
+        case_res["mass_source"] == "exact" else protocol
 
 
-def initial_conditions(seed: int, n_particles: int, box: float, case: str, protocol: str = "paired",
-                       energy_per_particle: float = ENERGY_PER_PARTICLE, gap: float = 0.02):
-    """Centres (n,3) in [0, box), unit axes (n,3), velocities (n,3) of one run.
+def _rotation_z_to(u):
+    """Rotation matrices (n, 3, 3) taking e_z to the unit vectors u (n, 3) (Rodrigues)."""
+    u = np.asarray(u, float)
+    n = len(u)
+    R = np.empty((n, 3, 3))
+    z = np.array([0.0, 0.0, 1.0])
+    for k in range(n):
+        v = np.cross(z, u[k])
+        c = float(u[k, 2])
+        if c < -1.0 + 1e-12:
+            R[k] = np.diag([1.0, -1.0, -1.0])
+            continue
+        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        R[k] = np.eye(3) + vx + vx @ vx / (1.0 + c)
+    return R
 
-    Positions, axes and the velocity *directions* depend on ``seed`` only (never on the
-    case), so all cases of a seed start from the same state.  Velocities are Maxwellian
-    with zero total momentum, scaled so that the translational kinetic energy is
-    ``n * energy_per_particle`` with the exact clump mass (``paired``) or with the case's
-    own mass (``equal_energy``).
+
+def _rot_z(phi):
+    c, s = np.cos(phi), np.sin(phi)
+    R = np.zeros((len(phi), 3, 3))
+    R[:, 0, 0] = c
+    R[:, 0, 1] = -s
+    R[:, 1, 0] = s
+    R[:, 1, 1] = c
+    R[:, 2, 2] = 1.0
+    return R
+
+
+def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass, exact_inertia=None,
+                  case_inertia=None, protocol="paired", energy_per_particle=ENERGY_PER_PARTICLE,
+                  start="zero_spin", linear=True, gap=0.02):
+    """Initial state of one run: centres (n, 3) m in [0, box), orientations (n, 3, 3) (body to
+    world), velocities (n, 3) m/s and angular velocities (n, 3) rad/s (world frame).
+
+    Everything depends on ``seed`` only, never on the case, so all cases of a seed start from
+    the same state (the same random draws in the same order: positions, axes, velocities, then
+    twist angles and body-frame angular velocities; the first three are those of the paper's
+    study since its first version).  Positions: random sequential placement with exclusion
+    distance 2 ``bounding_radius`` + ``gap`` (periodic).  Orientation: the body z axis goes to a
+    random direction, twisted about it by a random angle.  Velocities: Maxwellian with zero total
+    momentum, scaled so that the translational kinetic energy is n x ``energy_per_particle``
+    (with the exact mass for ``paired``, the case's own for ``equal_energy``).
+
+    ``start="zero_spin"`` (the paper): no rotation.  ``start="equipartition"``: the total kinetic
+    energy per particle is still ``energy_per_particle``, shared as kT/2 per degree of freedom
+    (3 translational + 2 (linear clumps, no spin about the axis) or 3 rotational); body-frame
+    angular velocities are Gaussian with covariance kT I^-1 (``exact_inertia``, (3, 3) kg m^2 in
+    the body frame), scaled to the exact rotational energy (``paired``) or to the same energy with
+    ``case_inertia`` (``equal_energy``); the same draws in every case.
     """
+    if start not in STARTS:
+        raise ValueError(f"unknown start {start!r}")
     rng = np.random.default_rng(seed)
-    dmin = 2 * BOUNDING_RADIUS + gap
+    dmin = 2 * bounding_radius + gap
     pos = np.empty((n_particles, 3))
     k = 0
     tries = 0
@@ -139,37 +199,40 @@ def initial_conditions(seed: int, n_particles: int, box: float, case: str, proto
     axes /= np.linalg.norm(axes, axis=1)[:, None]
     vel = rng.normal(size=(n_particles, 3))
     vel -= vel.mean(axis=0)
-    m_exact = dimer_properties("exact")[0]
-    m_scale = m_exact if effective_protocol(case, protocol) == "paired" else case_properties(case)["mass"]
-    e_target = n_particles * energy_per_particle
-    vel *= np.sqrt(e_target / (0.5 * m_scale * np.sum(vel ** 2)))
-    return pos, axes, vel
+    twist = rng.uniform(0.0, 2 * np.pi, n_particles)
+    z = rng.normal(size=(n_particles, 3))
+    ori = _rotation_z_to(axes) @ _rot_z(twist)
+    own = effective_protocol(case_res, exact_mass, protocol) == "equal_energy"
+    m_scale = case_res["mass"] if own else exact_mass
+    rot_dof = 2 if linear else 3
+    spin = start == "equipartition" and case_res["body"] == "clump"
+    f_dof = 3 + (rot_dof if start == "equipartition" else 0)
+    e_total = n_particles * energy_per_particle
+    vel *= np.sqrt(e_total * 3.0 / f_dof / (0.5 * m_scale * np.sum(vel ** 2)))
+    angvel = np.zeros((n_particles, 3))
+    if spin:
+        I = np.asarray(exact_inertia, float)
+        if linear:              # body z is the axis: rotation about x and y only
+            I2 = I[:2, :2]
+            w, V = np.linalg.eigh(I2)
+            wb = np.zeros((n_particles, 3))
+            wb[:, :2] = (z[:, :2] / np.sqrt(w)) @ V.T
+        else:
+            w, V = np.linalg.eigh(I)
+            wb = (z / np.sqrt(w)) @ V.T             # covariance V diag(1/w) V^T = I^-1
+        I_scale = np.asarray(case_inertia if own else exact_inertia, float)
+        e_rot = e_total * rot_dof / f_dof
+        wb *= np.sqrt(e_rot / (0.5 * np.einsum("ni,ij,nj->", wb, I_scale, wb)))
+        angvel = np.einsum("nij,nj->ni", ori, wb)
+    return pos, ori, vel, angvel
 
 
-def energies(mass, inertia, vel, angvel):
-    """Translational and rotational kinetic energy (J) of the gas; arrays (..., n, 3).
-
-    Rotation uses the case's isotropic inertia (exact for these frictionless dimers,
-    see docs/granular_gas.md); YADE's ``O.energy['kinRot']`` is wrong for clumps.
-    """
-    e_t = 0.5 * mass * np.sum(vel ** 2, axis=(-1, -2))
-    e_r = 0.5 * inertia * np.sum(angvel ** 2, axis=(-1, -2))
-    return e_t, e_r
-
-
-def file_sha(path: str) -> str:
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
-def repo_root() -> str:
-    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def code_version() -> str:
-    """Hash of the code that determines a run's output (YADE script + this module)."""
-    root = repo_root()
-    h = hashlib.sha256()
-    for rel in ("yade_scripts/granular_gas.py", "studies/gas_model.py"):
-        h.update(file_sha(os.path.join(root, rel)).encode())
-    return h.hexdigest()[:12]
+def rotational_energy(angvel, ori, moments):
+    """Rotational kinetic energy (J) per frame: angvel (..., n, 3) world frame, ori (..., n, 3, 3)
+    body-to-world rotations (None for isotropic bodies), moments (3,) body-frame principal
+    moments (kg m^2).  YADE's ``O.energy['kinRot']`` is wrong for clumps on 2023.02a."""
+    I = np.asarray(moments, float)
+    if ori is None:
+        return 0.5 * I[0] * np.sum(angvel ** 2, axis=(-1, -2))
+    wb = np.einsum("...nji,...nj->...ni", ori, angvel)      # R^T w
+    return 0.5 * np.sum(I * wb ** 2, axis=(-1, -2))

@@ -1,0 +1,87 @@
+"""Command line of the gas studies: ``python -m studies COMMAND SPEC [options]``.
+
+    run      sweep (the spec's missing runs, on Dask) + analyze + plot + report
+    sweep    only the runs
+    status   the manifest: runs done, flagged, failed, to do
+    analyze  tables from the manifest and the reduced records
+    plot     figures from the tables
+    prepare  write run files and a yade-batch table for running by hand (yade-batch)
+
+SPEC is a study spec (``studies/specs/*.toml``; a bare name like ``quick`` means
+``studies/specs/quick.toml``).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from . import spec as S
+
+
+def _spec_path(name):
+    if os.path.exists(name):
+        return name
+    p = os.path.join(S.SPEC_DIR, name if name.endswith(".toml") else name + ".toml")
+    return p if os.path.exists(p) else name
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m studies", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare"))
+    ap.add_argument("spec", help="study spec file or name (studies/specs/NAME.toml)")
+    ap.add_argument("--scheduler", default=None, help="tcp://HOST:PORT of a running Dask scheduler "
+                    "(default: a LocalCluster in this process, one worker per core)")
+    ap.add_argument("--workers", type=int, default=None, help="LocalCluster workers (default: cores)")
+    ap.add_argument("--yade", default=os.environ.get("CLUMPPROPS_YADE", "auto"),
+                    help="YADE command: auto (native yade, else the Debian 13 root for 2025.x), debian13, "
+                         "or a command/path (env CLUMPPROPS_YADE)")
+    ap.add_argument("--results", default=None, help="results directory (default: the spec's study.results)")
+    ap.add_argument("--allow-dirty", action="store_true", help="run from a tree with uncommitted changes")
+    ap.add_argument("--keep-raw", action="store_true", help="keep raw trajectories in <results>/raw (untracked)")
+    ap.add_argument("--max-runs", type=int, default=None, help="run at most this many of the missing runs")
+    ap.add_argument("--progress-every", type=float, default=30.0, help="seconds between progress lines")
+    ap.add_argument("--out", default=None, help="prepare: directory for run files")
+    a = ap.parse_args(argv)
+    try:
+        spec = S.load(_spec_path(a.spec))
+    except S.SpecError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if a.results:
+        spec["study"]["results"] = os.path.abspath(a.results)
+    from . import engine
+
+    t0 = time.time()
+    if a.command == "prepare":
+        from . import prepare
+        prepare.write(spec, a.out or "runs_prepared")
+        return 0
+    if a.command in ("run", "sweep"):
+        engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
+                     allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
+    if a.command == "status":
+        rows = engine.reconcile(spec, S.runs(spec), engine.results_dir(spec))
+        from collections import Counter
+        c = Counter(r["status"] for r in rows.values())
+        print(f"{spec['study']['name']}: {len(rows)} runs: " + ", ".join(f"{k} {v}" for k, v in sorted(c.items())))
+        for r in rows.values():
+            if r["status"] in ("failed", "flagged"):
+                print(f"  {r['status']}: {r['name']} (attempts {r['attempts']}): {r['error'][:200]}")
+        return 0
+    if a.command in ("run", "analyze"):
+        from . import analysis
+        analysis.analyze(spec)
+    if a.command in ("run", "plot"):
+        from . import gas_plots
+        gas_plots.plot_all(engine.results_dir(spec))
+    if a.command == "run":
+        print(f"[run] total wall time {engine._fmt_s(time.time() - t0)}; results in "
+              f"{os.path.relpath(engine.results_dir(spec), S.ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

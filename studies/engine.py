@@ -1,0 +1,228 @@
+"""The study driver: runs a spec's missing runs as Dask tasks, keeps the manifest, shows progress.
+
+Each run is one Dask task (:func:`studies.runner.execute`), each task one single-threaded YADE
+process.  By default a ``LocalCluster`` with one worker per core runs in the driver's process
+(threads that wait on YADE processes; a YADE process dies with the driver); ``scheduler`` names
+an existing Dask cluster (``tcp://HOST:PORT``) whose workers share the results directory.
+
+The manifest (``<results>/manifest.csv``) lists every run of the spec with its key, status
+(``done``, ``flagged`` (finished, failed its checks: never used), ``failed`` (crashed: retried on
+the next invocation up to ``study.max_attempts``), ``todo``), attempts, error and record file.
+Only the driver writes it (atomically).  A run is done when its reduced record is in
+``<results>/runs/``: after a ``kill -9`` of the driver the same command finds the finished records
+and runs the rest; a worker that dies mid-run has its task rescheduled by Dask and leaves no
+partial record.
+"""
+from __future__ import annotations
+
+import csv
+import fcntl
+import io
+import json
+import os
+import time
+
+from . import runner
+from . import spec as S
+
+MANIFEST_FIELDS = ("key", "name", "group", "shape", "case", "protocol", "seed", "status", "attempts", "error",
+                   "record", "yade_version", "rot_algorithm", "energy_drift", "steps_per_s", "wall_s", "updated")
+
+
+def results_dir(spec):
+    d = spec["study"]["results"]
+    return d if os.path.isabs(d) else os.path.join(S.ROOT, d)
+
+
+def read_manifest(rdir):
+    path = os.path.join(rdir, "manifest.csv")
+    if not os.path.exists(path):
+        return {}
+    with open(path, newline="") as f:
+        return {r["key"]: r for r in csv.DictReader(f)}
+
+
+def write_manifest(rdir, rows):
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=MANIFEST_FIELDS, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: r.get(k, "") for k in MANIFEST_FIELDS})
+    runner.write_atomic(os.path.join(rdir, "manifest.csv"), buf.getvalue())
+
+
+def settings_of(spec, rdir, yade="auto", keep_raw=False, scratch=None, timeout=None):
+    a, r = spec["analysis"], spec["run"]
+    cuts = ({float(a["t_eq"])} if a["t_eq"] != "auto" else {0.0}) | {float(c) for c in a["cuts"]} \
+        | {float(s[0]) for s in a["sensitivity"]}
+    return {"results_dir": rdir, "yade": yade, "cuts": sorted(cuts) or [0.0], "max_lag": a["max_lag"],
+            "energy_tol": r["energy_tol"], "momentum_tol": r["momentum_tol"],
+            "progress_period": r["progress_period"], "keep_raw": keep_raw, "scratch": scratch,
+            "timeout": timeout}
+
+
+def _row(run, old=None):
+    row = {k: run[k] for k in ("key", "name", "group", "shape", "case", "protocol", "seed")}
+    row.update(status="todo", attempts=0, error="", record="")
+    if old:
+        row.update({k: old.get(k, "") for k in MANIFEST_FIELDS if k not in row or k in
+                    ("status", "attempts", "error", "record", "yade_version", "rot_algorithm", "energy_drift",
+                     "steps_per_s", "wall_s", "updated")})
+        row["attempts"] = int(old.get("attempts") or 0)
+    return row
+
+
+def reconcile(spec, runs, rdir):
+    """Manifest rows of the spec's runs: records on disk win (a record is a finished run)."""
+    old = read_manifest(rdir)
+    rows = {}
+    for run in runs:
+        row = _row(run, old.get(run["key"]))
+        path = runner.record_path(rdir, run)
+        if runner.is_complete(path, run["key"]):
+            if row["status"] not in ("done", "flagged"):
+                with open(path) as f:
+                    rec = json.load(f)
+                _fill_done(row, rec, rdir)
+        elif row["status"] in ("done", "flagged"):
+            row.update(status="todo", record="")      # record deleted: run again
+        rows[run["key"]] = row
+    return rows
+
+
+def _fill_done(row, rec, rdir):
+    c = rec["checks"]
+    row.update(status="done" if c["ok"] else "flagged", error="; ".join(c["fail_reasons"]),
+               record=os.path.relpath(runner.record_path(rdir, rec), rdir),
+               yade_version=rec["yade_version"], rot_algorithm=rec["rot_algorithm"],
+               energy_drift=f"{c['energy_drift']:.3g}", steps_per_s=f"{rec['facts']['steps_per_s']:.0f}",
+               wall_s=f"{rec['wall_s']:.1f}", updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
+    if not row.get("attempts"):
+        row["attempts"] = 1
+
+
+def _fmt_s(s):
+    if s is None or s != s:
+        return "?"
+    s = int(s)
+    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
+
+
+def _client(scheduler, workers):
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout="30s"), None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=False, dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow_dirty=False, max_runs=None,
+          progress_every=30.0, log=print, scratch=None, timeout=None):
+    """Run every missing run of ``spec``; returns the manifest rows (dict by key)."""
+    from distributed import wait
+
+    rdir = results_dir(spec)
+    os.makedirs(os.path.join(rdir, "runs"), exist_ok=True)
+    lock = open(os.path.join(rdir, ".driver.lock"), "w")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise SystemExit(f"[study] another driver is running on {rdir}")
+    commit, dirty = runner.git_state()
+    if dirty and not allow_dirty:
+        raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
+                         "runs must come from a committed revision (commit, use a clean `git worktree`, "
+                         "or pass --allow-dirty for a throw-away study)")
+    runs = S.runs(spec)
+    rows = reconcile(spec, runs, rdir)
+    max_att = spec["study"]["max_attempts"]
+    todo = [r for r in runs if rows[r["key"]]["status"] in ("todo", "failed")
+            and int(rows[r["key"]]["attempts"]) < max_att]
+    given_up = [r for r in runs if rows[r["key"]]["status"] == "failed" and int(rows[r["key"]]["attempts"]) >= max_att]
+    if max_runs is not None:
+        todo = todo[:max_runs]
+    n_done = sum(rows[r["key"]]["status"] in ("done", "flagged") for r in runs)
+    write_manifest(rdir, [rows[r["key"]] for r in runs])
+    log(f"[study] {spec['study']['name']} ({spec['path']}): {len(runs)} runs, {n_done} already complete, "
+        f"{len(todo)} to do, {len(given_up)} given up after {max_att} attempts; commit {commit[:10]}"
+        f"{' (dirty)' if dirty else ''}; results in {os.path.relpath(rdir, S.ROOT)}")
+    for r in given_up:
+        log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
+    if not todo:
+        return rows
+    workers = workers or os.cpu_count() or 1
+    client, cluster = _client(scheduler, workers)
+    settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
+    t_start = time.time()
+    try:
+        futs = {}
+        for i, run in enumerate(todo):
+            f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}",
+                              pure=False, priority=len(todo) - i, retries=0)
+            futs[f] = run
+        log(f"[study] {len(todo)} runs submitted to "
+            f"{scheduler or f'a LocalCluster of {workers} worker(s)'}")
+        pending = set(futs)
+        sim_total = sum(r["params"]["run"]["t_end"] for r in todo)
+        sim_done, last = 0.0, 0.0
+        n_ok = n_flag = n_fail = 0
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
+            except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
+                done = set()
+            for f in done:
+                run = futs[f]
+                row = rows[run["key"]]
+                row["attempts"] = int(row["attempts"] or 0) + 1
+                sim_done += run["params"]["run"]["t_end"]
+                try:
+                    summ = f.result()
+                    with open(runner.record_path(rdir, run)) as fh:
+                        _fill_done(row, json.load(fh), rdir)
+                    flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
+                    n_ok += summ["ok"]
+                    n_flag += not summ["ok"]
+                    log(f"[study] done {run['name']}: {flag}, energy drift {summ['energy_drift']:.2g}, "
+                        f"{summ['steps_per_s']:.0f} steps/s, {summ['wall_s']:.0f} s, YADE {summ['yade_version']} "
+                        f"({summ['rot_algorithm']})")
+                except Exception as e:  # noqa: BLE001 - any failure of a run is recorded, never lost
+                    n_fail += 1
+                    msg = f"{type(e).__name__}: {e}"
+                    row.update(status="failed", error=msg.replace("\n", " | ")[:2000],
+                               updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
+                    log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
+                write_manifest(rdir, [rows[r["key"]] for r in runs])
+            now = time.time()
+            if pending and now - last >= progress_every:
+                last = now
+                log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
+                                   len(todo) - len(pending), len(todo)))
+        log(f"[study] finished {len(todo)} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, {n_flag} flagged, "
+            f"{n_fail} failed")
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+        fcntl.flock(lock, fcntl.LOCK_UN)
+        lock.close()
+    return rows
+
+
+def _progress_line(rdir, futs, pending, sim_done, sim_total, elapsed, n_done, n_all):
+    parts, sim_now = [], sim_done
+    pdir = os.path.join(rdir, ".progress")
+    for f in pending:
+        run = futs[f]
+        try:
+            with open(os.path.join(pdir, run["key"] + ".json")) as fh:
+                p = json.load(fh)
+        except (OSError, ValueError):
+            continue
+        sim_now += p["t"]
+        parts.append(f"{run['name'].rsplit('-', 1)[0]} t={p['t']:.0f}/{p['t_end']:.0f} s "
+                     f"{p['steps_per_s']:.0f} steps/s eta {_fmt_s(p['eta_s'])}")
+    eta = elapsed / sim_now * (sim_total - sim_now) if sim_now > 0 else None
+    return (f"[study] {n_done}/{n_all} runs done, {len(parts)} running, {_fmt_s(elapsed)} elapsed, "
+            f"study eta {_fmt_s(eta)}" + ("" if not parts else " | " + " | ".join(parts)))

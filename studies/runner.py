@@ -1,0 +1,220 @@
+"""Execute one run: write its run file, run YADE (natively or in the Debian 13 root), reduce.
+
+:func:`execute` is what a Dask task calls on a worker: it needs only the run dict of
+:func:`studies.spec.runs` and a settings dict, and shares nothing with the driver but the
+results directory.  It is idempotent: a run whose reduced record is already there returns it.
+Every file it leaves is written atomically (temporary name, then ``os.replace``), so a worker
+killed at any moment leaves no partial record; scratch files of an attempt live in their own
+directory under ``scratch`` and are removed when the attempt ends.
+"""
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+
+import numpy as np
+
+from . import reduce as red
+from .spec import ROOT, run_input
+
+SCRIPT = os.path.join(ROOT, "yade_scripts", "granular_gas.py")
+DEBIAN13 = os.path.join(ROOT, "scripts", "debian13.sh")
+_VERSION_CACHE = {}
+
+
+class RunError(RuntimeError):
+    """A run that did not produce its record (YADE crashed, timed out, or was refused)."""
+
+
+def write_atomic(path, text):
+    d = os.path.dirname(path)
+    os.makedirs(d, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=os.path.basename(path) + ".", suffix=".tmp", dir=d)
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _version_of(cmd):
+    """YADE version string that ``cmd --version`` prints (cached), or None."""
+    key = tuple(cmd)
+    if key not in _VERSION_CACHE:
+        try:
+            out = subprocess.run(list(cmd) + ["--version"], capture_output=True, text=True, timeout=120).stdout
+            m = re.search(r"Yade version:\s*(\S+)", out)
+            _VERSION_CACHE[key] = m.group(1) if m else None
+        except (OSError, subprocess.TimeoutExpired):
+            _VERSION_CACHE[key] = None
+    return _VERSION_CACHE[key]
+
+
+def _matches(found, wanted):
+    return found is not None and (found == wanted or found.startswith(wanted + "."))
+
+
+def yade_command(wanted, setting="auto"):
+    """(command list, chrooted?) of a YADE whose version is ``wanted``.
+
+    ``setting``: ``"auto"`` (the native ``yade`` if its version matches, else the Debian 13 root
+    of ``scripts/debian13.sh`` for 2025.x), ``"debian13"``, or a command/path (``"yade"``,
+    ``"/opt/yade/bin/yade"``).  Raises RunError if none gives the wanted version.
+    """
+    cands = []
+    if setting in ("auto", None):
+        if shutil.which("yade"):
+            cands.append((["yade"], False))
+        cands.append(([DEBIAN13, "run", "yade"], True))
+    elif setting == "debian13":
+        cands.append(([DEBIAN13, "run", "yade"], True))
+    else:
+        cands.append((setting.split(), False))
+    seen = []
+    for cmd, chroot in cands:
+        v = _version_of(cmd)
+        seen.append(f"{' '.join(cmd)} -> {v}")
+        if _matches(v, wanted):
+            return cmd, chroot, v
+    raise RunError(f"no YADE {wanted} found ({'; '.join(seen)}); for 2025.2 on Debian 12 run "
+                   f"scripts/debian13.sh build, or pass --yade")
+
+
+def _die_with_parent():
+    os.setsid()
+    try:
+        ctypes.CDLL("libc.so.6").prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG: die with the worker thread
+    except OSError:
+        pass
+
+
+def is_complete(path, key):
+    """True if ``path`` is a finished reduced record of run ``key``."""
+    try:
+        with open(path) as f:
+            rec = json.load(f)
+    except (OSError, ValueError):
+        return False
+    return rec.get("key") == key and rec.get("reduction_version") == red.REDUCTION_VERSION
+
+
+def record_path(results_dir, run):
+    return os.path.join(results_dir, "runs", run["name"] + ".json")
+
+
+def git_state():
+    try:
+        c = subprocess.run(["git", "-C", ROOT, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+        d = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no", "--",
+                            "yade_scripts", "studies", "clumpprops"], capture_output=True, text=True).stdout.strip()
+        return c, bool(d)
+    except OSError:
+        return "unknown", True
+
+
+def _progress(path, **kw):
+    try:
+        write_atomic(path, json.dumps(dict(kw, wall=time.time())))
+    except OSError:
+        pass
+
+
+def execute(run, settings):
+    """Run one study run and write its reduced record; returns a small summary dict.
+
+    ``settings``: ``results_dir``, ``yade`` (see :func:`yade_command`), ``cuts`` (analysis window
+    starts, s), ``max_lag`` (s), ``energy_tol``, ``momentum_tol``, ``progress_period`` (s),
+    ``keep_raw`` (bool), ``scratch`` (directory for attempt files), ``timeout`` (s or None).
+    """
+    out = record_path(settings["results_dir"], run)
+    if is_complete(out, run["key"]):
+        with open(out) as f:
+            rec = json.load(f)
+        return _summary(rec, reused=True)
+    params = run["params"]
+    cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
+    scratch_root = settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")
+    work = os.path.join(scratch_root, f"{run['name']}-{uuid.uuid4().hex[:8]}")
+    os.makedirs(work)
+    prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+    try:
+        rin = run_input(params, progress_period=settings.get("progress_period", 20.0))
+        rin_path = os.path.join(work, "run.json")
+        with open(rin_path, "w") as f:
+            json.dump(rin, f)
+        prefix = os.path.join(work, "out")
+        table = os.path.join(work, "run.table")
+        with open(table, "w") as f:
+            f.write(f"run out\n{rin_path!r} {prefix!r}\n")
+        env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{table}:2", CLUMPPROPS_ROOT=ROOT)
+        script = SCRIPT
+        if chroot:      # the repository is /repo inside the root; /tmp is shared
+            script = "/repo/yade_scripts/granular_gas.py"
+            cmd = cmd[:2] + ["env", f"YADE_BATCH={table}:2"] + cmd[2:]
+        log_path = os.path.join(work, "yade.log")
+        t0 = time.time()
+        t_end = params["run"]["t_end"]
+        with open(log_path, "w") as log:
+            p = subprocess.Popen(cmd + ["-n", "-x", script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                 stdin=subprocess.DEVNULL, env=env, cwd=work, text=True,
+                                 preexec_fn=_die_with_parent)
+            _progress(prog, name=run["name"], t=0.0, t_end=t_end, steps_per_s=0.0, eta_s=None, state="starting")
+            for line in p.stdout:
+                log.write(line)
+                m = re.match(r"PROGRESS t=([\d.]+) t_end=([\d.]+) steps_per_s=(\d+) eta_s=(\d+)", line)
+                if m:
+                    t, te, sps, eta = (float(x) for x in m.groups())
+                    _progress(prog, name=run["name"], t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running")
+                if settings.get("timeout") and time.time() - t0 > settings["timeout"]:
+                    os.killpg(p.pid, signal.SIGKILL)
+            rc = p.wait()
+        wall = time.time() - t0
+        if rc != 0 or not os.path.exists(prefix + ".json"):
+            with open(log_path, errors="replace") as f:
+                tail = f.read()[-1500:]
+            raise RunError(f"YADE exited with code {rc} after {wall:.0f} s; log tail:\n{tail}")
+        with open(prefix + ".json") as f:
+            facts = json.load(f)
+        with np.load(prefix + ".npz") as z:
+            frames = {k: z[k] for k in z.files}
+        rec = red.reduce_run(frames, rin, settings["cuts"], settings["max_lag"], settings["energy_tol"],
+                             settings["momentum_tol"])
+        commit, dirty = git_state()
+        rec.update(key=run["key"], name=run["name"], shape=run["shape"], case=run["case"],
+                   protocol=run["protocol"], seed=run["seed"], params=params, facts=facts,
+                   yade_version=facts["yade_version"], rot_algorithm=facts["rot_algorithm"],
+                   host=socket.gethostname(), wall_s=wall, git_commit=commit, git_dirty=dirty,
+                   box_length=rin["box_length"], rot_dof=rin["rot_dof"], case_body=rin["case"],
+                   exact_mass=rin["exact_mass"], python=sys.version.split()[0])
+        if settings.get("keep_raw"):
+            raw = os.path.join(settings["results_dir"], "raw")
+            os.makedirs(raw, exist_ok=True)
+            os.replace(prefix + ".npz", os.path.join(raw, run["name"] + ".npz"))
+            with open(os.path.join(raw, run["name"] + ".run.json"), "w") as f:
+                json.dump(rin, f)
+        write_atomic(out, json.dumps(rec, separators=(",", ":")))
+        return _summary(rec, reused=False)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+        try:
+            os.remove(prog)
+        except OSError:
+            pass
+
+
+def _summary(rec, reused):
+    c = rec["checks"]
+    return {"key": rec["key"], "name": rec["name"], "ok": c["ok"], "fail_reasons": c["fail_reasons"],
+            "energy_drift": c["energy_drift"], "steps_per_s": rec["facts"]["steps_per_s"],
+            "wall_s": rec["wall_s"], "yade_version": rec["yade_version"], "rot_algorithm": rec["rot_algorithm"],
+            "reused": reused}

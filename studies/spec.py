@@ -1,0 +1,340 @@
+"""Study specs: a gas study described by a TOML file (``studies/specs/*.toml``), validated and
+resolved into runs.
+
+A spec names shapes, material, gas, run length, recording, time step, analysis choices, the
+YADE version it wants, and groups of (shape, cases, protocol, seeds) in priority order.  Every
+table and key is checked before any run starts: an unknown key, a missing field, a negative or
+non-finite number, or an aspherical shape on a YADE without a conservative aspherical integrator
+stops with one :class:`SpecError` naming the key.  See ``studies/specs/paper.toml`` for a
+commented example and docs/granular_gas.md for the reference.
+
+A run is identified by its fully resolved physical parameters (shape geometry, material, gas,
+run, case, protocol, seed), :data:`MODEL_VERSION`, the YADE version and the clumpprops version:
+:func:`run_key`.  Never by source hashes: editing a comment changes no key.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import os
+import tomllib
+
+import numpy as np
+
+from . import gas_model as gm
+from . import shapes as shp
+
+# Bump when the physics of a run changes (what the YADE script builds, records or integrates,
+# or how initial conditions are drawn).  Part of every run key.
+MODEL_VERSION = 2
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SPEC_DIR = os.path.join(ROOT, "studies", "specs")
+YADE_VERSIONS = ("2023.02a", "2025.2")
+
+
+class SpecError(ValueError):
+    """A bad study spec; the message names the key (``table.key``) and the file."""
+
+
+_NUM = (int, float)
+# table -> {key: (type, required, default, check)}; check: "pos" > 0, "nonneg" >= 0, "frac" in (0, 1)
+SCHEMA = {
+    "study": {"name": (str, True, None, None), "description": (str, False, "", None),
+              "results": (str, True, None, None), "yade": (str, True, None, "yade"),
+              "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos")},
+    "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
+                 "poisson": (_NUM, True, None, "poisson")},
+    "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
+            "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start")},
+    "run": {"t_end": (_NUM, True, None, "pos"), "rec_interval": (_NUM, True, None, "pos"),
+            "dt_factor": (_NUM, True, None, "pos"), "energy_tol": (_NUM, False, 1e-3, "pos"),
+            "momentum_tol": (_NUM, False, 1e-9, "pos"), "progress_period": (_NUM, False, 20.0, "pos")},
+    "analysis": {"t_eq": ((_NUM, str), True, None, "t_eq"), "fit_lo": (_NUM, True, None, "nonneg"),
+                 "fit_hi": (_NUM, True, None, "pos"), "max_lag": (_NUM, False, 150.0, "pos"),
+                 "cuts": (list, False, [], None), "sensitivity": (list, False, [], None)},
+    "spheres": {"diameter": ((_NUM, str), False, "equal_volume", "diameter"),
+                "mass": (str, False, "exact", "smass")},
+}
+SHAPE_KEYS = {"kind": (str, True, None, "kind"), "sphere_diameter": (_NUM, False, None, "pos"),
+              "overlap": (_NUM, False, None, "pos"), "path": (str, False, None, None),
+              "scale": (_NUM, False, 1.0, "pos")}
+GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None),
+              "protocol": (str, False, "paired", "protocol"), "seeds": (list, True, None, None),
+              "label": (str, False, None, None),
+              # per-group overrides of the study tables
+              "youngs_modulus": (_NUM, False, None, "pos"), "t_end": (_NUM, False, None, "pos"),
+              "dt_factor": (_NUM, False, None, "pos"), "start": (str, False, None, "start"),
+              "energy_per_particle": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
+              "target": (dict, False, None, None), "max_seeds": (int, False, None, "pos")}
+OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
+             "start": "gas", "energy_per_particle": "gas"}
+
+
+def _flat(typ):
+    out = []
+    for t in (typ if isinstance(typ, tuple) else (typ,)):
+        out.extend(_flat(t) if isinstance(t, tuple) else [t])
+    return tuple(out)
+
+
+def _check_value(where, v, typ, check):
+    if isinstance(v, bool) or not isinstance(v, _flat(typ)):
+        raise SpecError(f"{where}: expected {_tname(typ)}, got {v!r}")
+    if isinstance(v, float) and not math.isfinite(v):
+        raise SpecError(f"{where}: must be finite, got {v!r}")
+    num = isinstance(v, (int, float)) and not isinstance(v, bool)
+    if check == "pos" and num and not v > 0:
+        raise SpecError(f"{where}: must be > 0, got {v!r}")
+    if check == "nonneg" and num and not v >= 0:
+        raise SpecError(f"{where}: must be >= 0, got {v!r}")
+    if check == "frac" and not 0 < v < 1:
+        raise SpecError(f"{where}: must be in (0, 1), got {v!r}")
+    if check == "poisson" and not -1 < v < 0.5:
+        raise SpecError(f"{where}: must be in (-1, 0.5), got {v!r}")
+    if check == "yade" and v not in YADE_VERSIONS:
+        raise SpecError(f"{where}: YADE version must be one of {', '.join(YADE_VERSIONS)}, got {v!r}")
+    if check == "start" and v not in gm.STARTS:
+        raise SpecError(f"{where}: must be one of {', '.join(gm.STARTS)}, got {v!r}")
+    if check == "protocol" and v not in gm.PROTOCOLS:
+        raise SpecError(f"{where}: must be one of {', '.join(gm.PROTOCOLS)}, got {v!r}")
+    if check == "kind" and v not in shp.KINDS:
+        raise SpecError(f"{where}: must be one of {', '.join(shp.KINDS)}, got {v!r}")
+    if check == "smass" and v not in ("exact", "density"):
+        raise SpecError(f"{where}: must be 'exact' (the exact clump mass) or 'density', got {v!r}")
+    if check == "diameter":
+        if isinstance(v, str) and v != "equal_volume":
+            raise SpecError(f"{where}: must be a diameter in m or 'equal_volume', got {v!r}")
+        if num and not v > 0:
+            raise SpecError(f"{where}: must be > 0, got {v!r}")
+    if check == "t_eq":
+        if isinstance(v, str) and v != "auto":
+            raise SpecError(f"{where}: must be a time in s or 'auto', got {v!r}")
+        if num and not v >= 0:
+            raise SpecError(f"{where}: must be >= 0, got {v!r}")
+
+
+def _tname(typ):
+    names = {int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a table"}
+    ts = _flat(typ)
+    return " or ".join(dict.fromkeys(names[t] for t in ts if not (t is int and float in ts)))
+
+
+def _table(where, d, keys):
+    if not isinstance(d, dict):
+        raise SpecError(f"{where}: expected a table, got {d!r}")
+    for k in d:
+        if k not in keys:
+            raise SpecError(f"{where}.{k}: unknown key (known: {', '.join(keys)})")
+    out = {}
+    for k, (typ, req, default, check) in keys.items():
+        if k not in d:
+            if req:
+                raise SpecError(f"{where}.{k}: missing")
+            out[k] = copy.deepcopy(default)
+            continue
+        _check_value(f"{where}.{k}", d[k], typ, check)
+        out[k] = d[k]
+    return out
+
+
+def load(path):
+    """Read and validate a spec file; returns the validated spec dict (with ``path``)."""
+    try:
+        with open(path, "rb") as f:
+            raw = tomllib.load(f)
+    except FileNotFoundError:
+        raise SpecError(f"{path}: no such spec file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{path}: not valid TOML: {e}") from None
+    try:
+        spec = validate(raw)
+    except SpecError as e:
+        raise SpecError(f"{path}: {e}") from None
+    spec["path"] = os.path.relpath(os.path.abspath(path), ROOT)
+    return spec
+
+
+def validate(raw):
+    """Validate a parsed spec (dict); returns it completed with defaults.  Raises SpecError."""
+    known = set(SCHEMA) | {"shapes", "groups"}
+    for k in raw:
+        if k not in known:
+            raise SpecError(f"{k}: unknown table (known: {', '.join(sorted(known))})")
+    spec = {}
+    for t, keys in SCHEMA.items():
+        if t not in raw and t not in ("spheres",):
+            raise SpecError(f"{t}: missing table")
+        spec[t] = _table(t, raw.get(t, {}), keys)
+    a = spec["analysis"]
+    if a["fit_hi"] <= a["fit_lo"]:
+        raise SpecError(f"analysis.fit_hi: must be > analysis.fit_lo ({a['fit_lo']}), got {a['fit_hi']}")
+    for i, c in enumerate(a["cuts"]):
+        _check_value(f"analysis.cuts[{i}]", c, _NUM, "nonneg")
+    for i, s in enumerate(a["sensitivity"]):
+        if not (isinstance(s, list) and len(s) == 3):
+            raise SpecError(f"analysis.sensitivity[{i}]: expected [t_eq, fit_lo, fit_hi], got {s!r}")
+        for j, v in enumerate(s):
+            _check_value(f"analysis.sensitivity[{i}][{j}]", v, _NUM, "nonneg")
+    shapes = raw.get("shapes")
+    if not isinstance(shapes, dict) or not shapes:
+        raise SpecError("shapes: missing (one [shapes.NAME] table per shape)")
+    spec["shapes"] = {}
+    for name, s in shapes.items():
+        sd = _table(f"shapes.{name}", s, SHAPE_KEYS)
+        need = ("path",) if sd["kind"] == "file" else ("sphere_diameter", "overlap")
+        for k in need:
+            if sd[k] is None:
+                raise SpecError(f"shapes.{name}.{k}: missing (needed by kind = {sd['kind']!r})")
+        extra = [k for k in (("sphere_diameter", "overlap") if sd["kind"] == "file" else ("path",))
+                 if sd[k] is not None]
+        if extra:
+            raise SpecError(f"shapes.{name}.{extra[0]}: not used by kind = {sd['kind']!r}")
+        sd = {k: v for k, v in sd.items() if v is not None and not (k == "scale" and sd["kind"] != "file")}
+        try:
+            shp.properties(sd, spec["material"]["density"])
+        except (ValueError, OSError) as e:
+            raise SpecError(f"shapes.{name}: {e}") from None
+        spec["shapes"][name] = sd
+    groups = raw.get("groups")
+    if not isinstance(groups, list) or not groups:
+        raise SpecError("groups: missing (one [[groups]] table per group of runs)")
+    spec["groups"] = []
+    for i, g in enumerate(groups):
+        where = f"groups[{i}]"
+        gd = _table(where, g, GROUP_KEYS)
+        if gd["shape"] not in spec["shapes"]:
+            raise SpecError(f"{where}.shape: unknown shape {gd['shape']!r} (defined: {', '.join(spec['shapes'])})")
+        if not gd["cases"]:
+            raise SpecError(f"{where}.cases: empty")
+        for j, c in enumerate(gd["cases"]):
+            if c not in gm.CASES:
+                raise SpecError(f"{where}.cases[{j}]: unknown case {c!r} (known: {', '.join(gm.CASES)})")
+        if not gd["seeds"]:
+            raise SpecError(f"{where}.seeds: empty")
+        for j, s in enumerate(gd["seeds"]):
+            if isinstance(s, bool) or not isinstance(s, int) or s < 0:
+                raise SpecError(f"{where}.seeds[{j}]: expected a non-negative integer, got {s!r}")
+        if gd["target"] is not None:
+            t = _table(f"{where}.target", gd["target"],
+                       {"case": (str, True, None, None), "halfwidth": (_NUM, True, None, "pos"),
+                        "batch": (int, False, 2, "pos")})
+            if t["case"] not in gd["cases"] or "exact" not in gd["cases"]:
+                raise SpecError(f"{where}.target.case: {t['case']!r} and 'exact' must both be in {where}.cases")
+            gd["target"] = t
+            if gd["max_seeds"] is None:
+                raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
+        props = shp.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
+        if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
+            raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
+                            f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
+                            f"integrator, which gains energy; set study.yade = '2025.2'")
+        spec["groups"].append(gd)
+    return spec
+
+
+def _group_tables(spec, g):
+    mat, gas, run = dict(spec["material"]), dict(spec["gas"]), dict(spec["run"])
+    for k, t in OVERRIDES.items():
+        if g.get(k) is not None:
+            {"material": mat, "gas": gas, "run": run}[t][k] = g[k]
+    return mat, gas, run
+
+
+def group_seeds(g):
+    """Seeds a group runs now: all of ``seeds`` (a sequential group starts from them)."""
+    return list(g["seeds"])
+
+
+def resolve_run(spec, g, case, seed):
+    """The fully resolved parameters of one run (a JSON-able dict); its key is :func:`run_key`."""
+    import clumpprops
+
+    mat, gas, run = _group_tables(spec, g)
+    shape = spec["shapes"][g["shape"]]
+    props = shp.properties(shape, mat["density"])
+    spheres = dict(spec["spheres"], density=mat["density"])
+    cres = gm.resolve_case(props, case, spheres)
+    protocol = gm.effective_protocol(cres, props["exact"]["mass"], g["protocol"])
+    p = {
+        "model_version": MODEL_VERSION,
+        "yade": spec["study"]["yade"],
+        "clumpprops_version": clumpprops.__version__,
+        "shape": {"members": np.round(props["members"], 15).tolist(), "radii": props["radii"],
+                  "definition": shape},
+        "material": {k: float(v) for k, v in mat.items()},
+        "gas": {k: (float(v) if k not in ("n_particles", "start") else v) for k, v in gas.items()},
+        "run": {k: float(run[k]) for k in ("t_end", "rec_interval", "dt_factor")},
+        "case": case, "protocol": protocol, "seed": int(seed),
+    }
+    if case == "spheres":
+        p["spheres"] = {"diameter": spec["spheres"]["diameter"], "mass": spec["spheres"]["mass"]}
+    return p
+
+
+def run_key(params):
+    """16 hex digits of the SHA-256 of the canonical JSON of a run's resolved parameters."""
+    return hashlib.sha256(json.dumps(params, sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:16]
+
+
+def run_label(spec, g, case, protocol, seed):
+    return f"{g['shape']}-{case}-{protocol}-s{seed}"
+
+
+def runs(spec, extra_seeds=None):
+    """Every run of a spec in priority order (group by group, seed by seed), without duplicates.
+
+    Returns dicts ``{key, name, group, shape, case, protocol, seed, params}``.  ``extra_seeds``
+    maps a group index to seeds added by sequential design.
+    """
+    out, seen = [], set()
+    for gi, g in enumerate(spec["groups"]):
+        seeds = group_seeds(g) + list((extra_seeds or {}).get(gi, []))
+        for seed in seeds:
+            for case in g["cases"]:
+                params = resolve_run(spec, g, case, seed)
+                key = run_key(params)
+                if key in seen:
+                    continue
+                seen.add(key)
+                label = g.get("label") or g["shape"]
+                out.append({"key": key, "name": f"{label}-{case}-{params['protocol']}-s{seed}-{key[:8]}",
+                            "group": gi, "shape": g["shape"], "case": case, "protocol": params["protocol"],
+                            "seed": int(seed), "params": params})
+    return out
+
+
+def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
+    """The run file of one run (what ``yade_scripts/granular_gas.py`` reads): a JSON-able dict with
+    material, box, time step, the body and the initial state of every particle."""
+    p = params if params is not None else spec_or_params
+    mat, gas, run = p["material"], p["gas"], p["run"]
+    shape = p["shape"]["definition"]
+    props = shp.properties(shape, mat["density"])
+    spheres = dict(p.get("spheres", {}), density=mat["density"])
+    cres = gm.resolve_case(props, p["case"], spheres)
+    ex = props["exact"]
+    n = int(gas["n_particles"])
+    box = gm.box_length(n, ex["volume"], gas["volume_fraction"])
+    rb = max(shp.bounding_radius(shape, mat["density"]), cres.get("radius", 0.0))
+    case_tensor = np.asarray(props[cres["inertia_source"] or "exact"]["inertia"])
+    pos, ori, vel, angvel = gm.initial_state(
+        p["seed"], n, box, rb, cres, ex["mass"], np.asarray(ex["inertia"]), case_tensor, p["protocol"],
+        gas["energy_per_particle"], gas["start"], props["linear"])
+    r_min = min(props["radii"])
+    dt = run["dt_factor"] * r_min * math.sqrt(mat["density"] / mat["youngs_modulus"])   # x P-wave step
+    n_steps = int(round(run["t_end"] / dt))
+    rec_steps = max(1, int(round(run["rec_interval"] / dt)))
+    body = {"builder": cres["builder"], "route": cres["route"], "mass": cres["mass"], "moments": cres["moments"]}
+    if cres["body"] == "sphere":
+        body["radius"] = cres["radius"]
+    else:
+        body.update(members=props["members"], radii=props["radii"])
+    return {"material": mat, "box_length": box, "dt": dt, "n_steps": n_steps, "rec_steps": rec_steps,
+            "rot_algorithm": "delValle2023", "body": body, "record": bool(record),
+            "progress_period": float(progress_period),
+            "initial": {"pos": pos.tolist(), "ori": ori.reshape(n, 9).tolist(), "vel": vel.tolist(),
+                        "angvel": angvel.tolist()},
+            "case": cres, "rot_dof": cres["rot_dof"], "exact_mass": ex["mass"]}
