@@ -129,19 +129,18 @@ def effective_protocol(case_res, exact_mass, protocol):
 
 
 def _rotation_z_to(u):
-    """Rotation matrices (n, 3, 3) taking e_z to the unit vectors u (n, 3) (Rodrigues)."""
+    """Rotation matrices (n, 3, 3) taking e_z to the unit vectors u (n, 3) (Rodrigues' formula
+    from +z for u_z >= 0, from -z composed with a half turn about x otherwise: no cancellation)."""
     u = np.asarray(u, float)
-    n = len(u)
-    R = np.empty((n, 3, 3))
-    z = np.array([0.0, 0.0, 1.0])
-    for k in range(n):
-        v = np.cross(z, u[k])
-        c = float(u[k, 2])
-        if c < -1.0 + 1e-12:
-            R[k] = np.diag([1.0, -1.0, -1.0])
-            continue
-        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-        R[k] = np.eye(3) + vx + vx @ vx / (1.0 + c)
+    flip = u[:, 2] < 0
+    w = np.where(flip[:, None], -u, u)              # w_z >= 0
+    v = np.stack([-w[:, 1], w[:, 0], np.zeros(len(w))], axis=1)     # e_z x w
+    vx = np.zeros((len(w), 3, 3))
+    vx[:, 0, 1], vx[:, 0, 2] = -v[:, 2], v[:, 1]
+    vx[:, 1, 0], vx[:, 1, 2] = v[:, 2], -v[:, 0]
+    vx[:, 2, 0], vx[:, 2, 1] = -v[:, 1], v[:, 0]
+    R = np.eye(3) + vx + vx @ vx / (1.0 + w[:, 2])[:, None, None]
+    R[flip] = -R[flip] @ np.diag([-1.0, 1.0, 1.0])     # takes e_z to -w = u, det +1
     return R
 
 

@@ -1,7 +1,8 @@
 """Analysis of the granular-gas runs: MSD, diffusion coefficients, the paper's ratio, energies.
 
-Reads ``<out>/runs/*.json|npz`` (only the runs of the given configuration and the current
-code version), writes tidy CSVs and ``params.json`` into ``<out>``:
+Reads only the manifest (``<results>/manifest.csv``) and the reduced run records it lists
+(``<results>/runs/*.json``), never a live simulation or a raw trajectory, and writes tidy CSVs and
+``params.json`` into the results directory:
 
 summary.csv            case, n_seeds, diffusion_coefficient, ci_low, ci_high, max_energy_drift
                        (paired protocol, one row per case; D in m^2/s, 95 % t-interval over seeds)
@@ -22,8 +23,9 @@ energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; p
 energy_equal_energy.csv  the same for the equal-energy runs
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
 
-MSD: time-origin averaged (FFT, :mod:`studies.msd`) over frames with t >= t_eq (the initial
-state has all energy translational; rotation equilibrates in ~25 s).  D per seed: slope / 6 of
+MSD: time-origin averaged (FFT, :mod:`studies.msd`) over frames with t >= t_eq (the record's
+analysis window starting at t_eq; the zero-spin start has all energy translational and
+rotation equilibrates in ~25 s).  D per seed: slope / 6 of
 a least-squares line through MSD(lag) for lag in [fit_lo, fit_hi]; the case's D is the mean
 over seeds with a Student-t 95 % interval (seeds are independent; particles within a run are not).
 """
@@ -36,11 +38,10 @@ import time
 
 import numpy as np
 
-from . import gas_model as gm
-from .granular_gas import run_name, run_specs
-from .msd import msd_fft
+from . import engine
+from . import spec as S
 
-ENERGY_STRIDE_S = 1.0      # energy.csv sampling (s); the runs record every rec_interval
+ESTIMATOR = "ols_msd"      # D per run: OLS slope / 6 of the MSD on [fit_lo, fit_hi] (legacy)
 
 
 def _paired_with_exact(per):
@@ -70,36 +71,23 @@ def t_interval(x, conf=0.95):
     return m, m - h, m + h, se, n
 
 
-def load_run(runs_dir, name):
-    with open(os.path.join(runs_dir, name + ".json")) as f:
-        res = json.load(f)
-    return res
+def window_of(rec, t_eq):
+    """The record's analysis window starting at ``t_eq`` (s)."""
+    for w in rec["windows"]:
+        if abs(w["t_cut"] - t_eq) < 1e-9:
+            return w
+    raise KeyError(f"run {rec['name']} has no analysis window from t = {t_eq} s "
+                   f"(stored: {[w['t_cut'] for w in rec['windows']]}): add it to analysis.cuts and rerun")
 
 
-def run_msd(runs_dir, name, t_eq):
-    """(lags_s, msd) of one run, cached next to the run (keyed by t_eq)."""
-    cache = os.path.join(runs_dir, f"{name}.msd-teq{t_eq:g}.npz")
-    src = os.path.join(runs_dir, name + ".npz")
-    if os.path.exists(cache) and os.path.getmtime(cache) >= os.path.getmtime(src):
-        z = np.load(cache)
-        return z["lag"], z["msd"]
-    z = np.load(src)
-    t = z["t"]
-    keep = t >= t_eq - 1e-9
-    if len(t) > 2 and abs((t[1] - t[0]) - (t[2] - t[1])) > 1e-9:
-        keep[0] = False        # frame 0 (t = 0) is one step off the even grid of frames 1, 2, ...
-    x = z["disp"][keep]
-    msd = msd_fft(x)
-    lag = t[keep] - t[keep][0]
-    n = len(lag) // 2 + 1                     # lags up to half the window are well averaged
-    lag, msd = lag[:n], msd[:n]
-    tmp = cache + f".tmp{os.getpid()}.npz"
-    np.savez(tmp, lag=lag, msd=msd)
-    os.replace(tmp, cache)
-    return lag, msd
+def run_msd(rec, t_eq):
+    """(lags_s, msd) of one run record from t_eq on (log-spaced lags)."""
+    w = window_of(rec, t_eq)
+    return np.asarray(w["msd_lag_s"]), np.asarray(w["msd"])
 
 
 def fit_d(lag, msd, lo, hi):
+    """D (m^2/s) = slope / 6 of a least-squares line through MSD(lag) for lo <= lag <= hi."""
     sel = (lag >= lo) & (lag <= hi)
     if sel.sum() < 3:
         raise ValueError(f"fit window [{lo}, {hi}] s has {sel.sum()} lags (max lag {lag[-1]:.1f} s)")
@@ -121,52 +109,65 @@ def label(case, protocol):
     return case if protocol == "paired" else f"{case}@{protocol}"
 
 
-def analyze(cfg, out, wall_sweep_s=None, log=print):
+def load_records(spec):
+    """(manifest rows, records) of a spec's runs: records of the runs the manifest lists as done
+    or flagged, read from the results directory."""
+    rdir = engine.results_dir(spec)
+    rows = engine.reconcile(spec, S.runs(spec), rdir)
+    recs = {}
+    for key, row in rows.items():
+        if row["status"] in ("done", "flagged"):
+            with open(os.path.join(rdir, row["record"])) as f:
+                recs[key] = json.load(f)
+    return rows, recs
+
+
+def analyze(spec, log=print):
+    """Tables of a spec's finished runs (one shape: the Fig. 2 tables; see the module docstring)."""
     t0 = time.time()
-    runs_dir = os.path.join(out, "runs")
-    specs = run_specs(cfg)
-    runs, missing = [], []
-    for s in specs:
-        name = run_name(s)
-        if not os.path.exists(os.path.join(runs_dir, name + ".json")):
-            missing.append(name)
-            continue
-        runs.append((s, name, load_run(runs_dir, name)))
+    a = spec["analysis"]
+    out = engine.results_dir(spec)
+    rows_m, recs = load_records(spec)
+    t_eq = a["t_eq"] if a["t_eq"] != "auto" else 0.0
+    missing = [r["name"] for r in rows_m.values() if r["status"] not in ("done", "flagged")]
     if missing:
         log(f"[analyze] {len(missing)} runs not finished (analysing the rest): {', '.join(missing[:4])}...")
-    good = [(s, n, r) for s, n, r in runs if r.get("ok")]
-    bad = [(s, n, r) for s, n, r in runs if not r.get("ok")]
+    runs = [(r, r["name"], r) for r in (recs[k] for k in rows_m if k in recs)]
+    good = [(s, n, r) for s, n, r in runs if r["checks"]["ok"]]
+    bad = [(s, n, r) for s, n, r in runs if not r["checks"]["ok"]]
     for s, n, r in bad:
-        log(f"[analyze] EXCLUDED {n}: {'; '.join(r.get('fail_reasons', ['?']))}")
+        log(f"[analyze] EXCLUDED {n}: {'; '.join(r['checks']['fail_reasons'])}")
 
     # ---- MSD and D per run ----
     per = {}          # (case, protocol) -> {seed: (lag, msd, D, run)}
     for s, n, r in good:
-        lag, msd = run_msd(runs_dir, n, cfg["t_eq"])
-        d = fit_d(lag, msd, cfg["fit_lo"], cfg["fit_hi"])
+        lag, msd = run_msd(r, t_eq)
+        d = fit_d(lag, msd, a["fit_lo"], a["fit_hi"])
         per.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = (lag, msd, d, r)
 
     rows = []
     for s, n, r in runs:
         d = per.get((s["case"], s["protocol"]), {}).get(s["seed"], (None, None, np.nan))[2]
-        rows.append([s["case"], s["protocol"], s["seed"], n, bool(r.get("ok")), "; ".join(r.get("fail_reasons", [])),
-                     r.get("energy_drift", np.nan), r.get("momentum_drift", np.nan), d,
-                     r.get("steps_per_s", np.nan), r.get("wall_run_s", np.nan), r.get("builder", ""),
-                     r.get("git_commit", ""), r.get("yade_version", "")])
+        c = r["checks"]
+        rows.append([s["case"], s["protocol"], s["seed"], n, bool(c["ok"]), "; ".join(c["fail_reasons"]),
+                     c["energy_drift"], c["momentum_drift"], d, r["facts"]["steps_per_s"], r["facts"]["wall_run_s"],
+                     r["facts"]["builder"], r["git_commit"] + ("-dirty" if r["git_dirty"] else ""),
+                     r["yade_version"], r["rot_algorithm"], r["key"]])
     _write_csv(os.path.join(out, "runs.csv"),
                ["case", "protocol", "seed", "run", "ok", "fail_reasons", "energy_drift", "momentum_drift",
-                "diffusion_coefficient", "steps_per_s", "wall_run_s", "builder", "git_commit", "yade_version"],
-               rows)
+                "diffusion_coefficient", "steps_per_s", "wall_run_s", "builder", "git_commit", "yade_version",
+                "rot_algorithm", "key"], rows)
 
     # ---- D per case with a t-interval ----
-    masses = {c: gm.case_properties(c)["mass"] for c in gm.CASES}
-    m_exact = masses["exact"]
+    masses = {r["case"]: r["case_body"]["mass"] for _, _, r in runs}
+    m_exact = next((r["exact_mass"] for _, _, r in runs), np.nan)
+    order = list(("exact", "uncorrected", "mass_only", "inertia_only", "spheres"))
     stats_d = {}
     prow = []
-    for (case, prot), seeds in sorted(per.items(), key=lambda kv: (kv[0][1] != "paired", list(gm.CASES).index(kv[0][0]))):
+    for (case, prot), seeds in sorted(per.items(), key=lambda kv: (kv[0][1] != "paired", order.index(kv[0][0]))):
         ds = [v[2] for v in seeds.values()]
         mean, lo, hi, se, n = t_interval(ds)
-        drift = max(v[3]["energy_drift"] for v in seeds.values())
+        drift = max(v[3]["checks"]["energy_drift"] for v in seeds.values())
         stats_d[(case, prot)] = (mean, lo, hi, se, n, drift)
         pred = np.nan
         if prot == "equal_energy" and (case, "paired") in per:
@@ -208,17 +209,17 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
 
     # ---- sensitivity of D to the equilibration cut and the fit window ----
     srows = []
-    for t_eq, lo, hi in cfg.get("sensitivity", []):
+    for t_eq_s, lo, hi in a["sensitivity"]:
         alt = {}
         for s, n, r in good:
-            lag, msd = run_msd(runs_dir, n, t_eq)
+            lag, msd = run_msd(r, t_eq_s)
             alt.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = fit_d(lag, msd, lo, hi)
         ex_alt = alt.get(("exact", "paired"), {})
         for (case, prot), seeds in alt.items():
             mean, clo, chi, se, n = t_interval(list(seeds.values()))
             common = sorted(set(seeds) & set(ex_alt))
             dm, dlo, dhi, _, _ = t_interval([seeds[k] - ex_alt[k] for k in common])
-            srows.append([case, prot, t_eq, lo, hi, n, mean, clo, chi, dm, dlo, dhi])
+            srows.append([case, prot, t_eq_s, lo, hi, n, mean, clo, chi, dm, dlo, dhi])
     if srows:
         _write_csv(os.path.join(out, "diffusion_sensitivity.csv"),
                    ["case", "protocol", "t_eq", "fit_lo", "fit_hi", "n_seeds", "diffusion_coefficient", "ci_low",
@@ -276,19 +277,14 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
     _write_csv(os.path.join(out, "ratio_D.csv"), ["case", "n_seeds", "ratio", "ci_low", "ci_high", "stderr"], rdrows)
 
     # ---- energies ----
-    stride = None
     erows = {"paired": [], "equal_energy": []}
     part = {}
     for s, n, r in good:
-        z = np.load(os.path.join(runs_dir, n + ".npz"))
-        t = z["t"]
-        if stride is None:
-            stride = max(1, int(round(ENERGY_STRIDE_S / (t[1] - t[0]))))
-        sl = slice(0, None, stride)
-        for row in zip(t[sl], z["e_trans"][sl], z["e_rot"][sl], z["e_elastic"][sl]):
+        e = {k: np.asarray(v) for k, v in r["energy"].items()}
+        for row in zip(e["t"], e["e_trans"], e["e_rot"], e["e_elastic"]):
             erows[s["protocol"]].append([s["case"], s["seed"]] + [float(v) for v in row])
-        etot = z["e_trans"] + z["e_rot"] + z["e_elastic"]
-        part.setdefault((s["case"], s["protocol"]), []).append((t[sl], (z["e_trans"] / etot)[sl], (z["e_rot"] / etot)[sl]))
+        etot = e["e_trans"] + e["e_rot"] + e["e_elastic"]
+        part.setdefault((s["case"], s["protocol"]), []).append((e["t"], e["e_trans"] / etot, e["e_rot"] / etot))
     hdr = ["case", "seed", "t", "e_trans", "e_rot", "e_elastic"]
     _write_csv(os.path.join(out, "energy.csv"), hdr, erows["paired"])
     if erows["equal_energy"]:
@@ -310,25 +306,22 @@ def analyze(cfg, out, wall_sweep_s=None, log=print):
     # ---- params.json ----
     any_run = good[0][2] if good else (runs[0][2] if runs else {})
     params = {
-        "scale": cfg["scale"],
-        "command": f".venv/bin/python -m studies.granular_gas run --scale {cfg['scale']}",
-        "n_particles": cfg["n_particles"],
-        "box_length": gm.box_length(cfg["n_particles"], cfg["volume_fraction"]),
-        "volume_fraction": cfg["volume_fraction"],
-        "kinetic_energy_total": cfg["n_particles"] * cfg["energy_per_particle"],
-        "t_end": cfg["t_end"], "rec_interval": cfg["rec_interval"], "dt": any_run.get("dt"),
-        "dt_factor": cfg["dt_factor"], "energy_tol": cfg["energy_tol"], "momentum_tol": cfg["momentum_tol"],
-        "groups": cfg["groups"], "t_eq": cfg["t_eq"], "fit_window_s": [cfg["fit_lo"], cfg["fit_hi"]],
-        "case_properties": {c: gm.case_properties(c) for c in gm.CASES},
-        "code_version": gm.code_version(), "yade_version": any_run.get("yade_version"),
-        "git_commits": sorted({r.get("git_commit", "") for _, _, r in runs}),
-        "n_runs": len(runs), "n_runs_ok": len(good), "n_runs_excluded": len(bad), "n_runs_missing": len(missing),
-        "wall_run_s_total": float(sum(r.get("wall_run_s", 0) for _, _, r in runs)),
-        "wall_sweep_s": wall_sweep_s,
+        "study": spec["study"], "spec": spec["path"],
+        "command": f".venv/bin/python -m studies run {spec['path']}",
+        "material": spec["material"], "gas": spec["gas"], "run": spec["run"], "analysis": spec["analysis"],
+        "shapes": spec["shapes"], "groups": spec["groups"], "spheres": spec["spheres"],
+        "n_particles": spec["gas"]["n_particles"], "box_length": any_run.get("box_length"),
+        "t_end": spec["run"]["t_end"], "dt": any_run.get("facts", {}).get("dt"), "t_eq": t_eq,
+        "fit_window_s": [a["fit_lo"], a["fit_hi"]], "estimator": ESTIMATOR,
+        "case_bodies": {r["case"]: r["case_body"] for _, _, r in runs},
+        "model_version": S.MODEL_VERSION,
+        "yade_versions": sorted({r["yade_version"] for _, _, r in runs}),
+        "rot_algorithms": sorted({r["rot_algorithm"] for _, _, r in runs}),
+        "clumpprops_versions": sorted({r["params"]["clumpprops_version"] for _, _, r in runs}),
+        "git_commits": sorted({r["git_commit"] + ("-dirty" if r["git_dirty"] else "") for _, _, r in runs}),
+        "n_runs": len(rows_m), "n_runs_ok": len(good), "n_runs_excluded": len(bad), "n_runs_missing": len(missing),
+        "wall_run_s_total": float(sum(r["facts"]["wall_run_s"] for _, _, r in runs)),
     }
-    if wall_sweep_s is None and os.path.exists(os.path.join(out, "params.json")):
-        with open(os.path.join(out, "params.json")) as f:
-            params["wall_sweep_s"] = json.load(f).get("wall_sweep_s")
     params["wall_analysis_s"] = time.time() - t0
     tmp = os.path.join(out, f"params.json.tmp{os.getpid()}")
     with open(tmp, "w") as f:

@@ -1,0 +1,375 @@
+"""The study engine with real YADE runs on tiny gases (each run: a few seconds).
+
+Physics of a run (conservation, flagging, the clump properties YADE integrates, ballistic flight
+with unwrapped positions), and the engine's promises: a tiny study on a LocalCluster of 2
+workers, a real Dask scheduler with 2 workers of which one is killed mid-study, a driver killed
+with ``kill -9`` and resumed, a crashed run recorded and retried, and the asymmetric clump that
+needs YADE 2025.2.
+"""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
+
+import numpy as np
+import pandas as pd
+import pytest
+import tomllib
+
+from studies import engine, runner
+from studies import spec as S
+from studies.msd import msd_fft
+
+ROOT = S.ROOT
+assert shutil.which("yade"), "the yade executable is missing: run scripts/setup.sh"
+HAVE_DEBIAN13 = runner._matches(runner._version_of([runner.DEBIAN13, "run", "yade"]), "2025.2") \
+    if os.geteuid() == 0 and os.path.exists(runner.DEBIAN13) else False
+
+
+def tiny(tmp, t_end=6.0, seeds=(1,), cases=("exact", "uncorrected", "spheres"), extra=None, **over):
+    """A test-scale spec written to tmp (27 particles, volume fraction 0.02) and its results dir."""
+    with open(os.path.join(S.SPEC_DIR, "test.toml"), "rb") as f:
+        r = tomllib.load(f)
+    r["study"]["results"] = str(tmp / "results")
+    r["run"]["t_end"] = t_end
+    r["analysis"].update(t_eq=0.5, fit_lo=1.0, fit_hi=2.5, max_lag=2.0)
+    r["groups"] = [{"shape": "dimer", "cases": list(cases), "seeds": list(seeds)}] + list(extra or [])
+    for k, v in over.items():
+        t, key = k.split("__")
+        r[t][key] = v
+    sp = S.validate(r)
+    sp["path"] = "tiny"
+    return sp
+
+
+def settings(sp, **kw):
+    return engine.settings_of(sp, engine.results_dir(sp), **kw)
+
+
+def run_one(sp, case, protocol="paired", seed=1, **kw):
+    run = next(r for r in S.runs(sp) if r["case"] == case and r["protocol"] == protocol and r["seed"] == seed)
+    summ = runner.execute(run, settings(sp, **kw))
+    with open(runner.record_path(engine.results_dir(sp), run)) as f:
+        rec = json.load(f)
+    rec["_results"] = engine.results_dir(sp)
+    return summ, rec, run
+
+
+@pytest.fixture(scope="module")
+def small_gas(tmp_path_factory):
+    """Four cases of one seed, 8 s each, through runner.execute (what a Dask task calls)."""
+    tmp = tmp_path_factory.mktemp("gas")
+    sp = tiny(tmp, t_end=8.0, cases=("exact", "uncorrected", "spheres"),
+              extra=[{"shape": "dimer", "cases": ["uncorrected"], "protocol": "equal_energy", "seeds": [1]}])
+    return {(c, p): run_one(sp, c, p, keep_raw=True) for c, p in
+            [("exact", "paired"), ("uncorrected", "paired"), ("spheres", "paired"), ("uncorrected", "equal_energy")]}
+
+
+@pytest.mark.parametrize("key", [("exact", "paired"), ("uncorrected", "paired"), ("spheres", "paired"),
+                                 ("uncorrected", "equal_energy")])
+def test_energy_and_momentum_conserved(small_gas, key):
+    summ, rec, _ = small_gas[key]
+    c = rec["checks"]
+    assert c["ok"], c["fail_reasons"]
+    assert c["energy_drift"] < 1e-3 and c["momentum_drift"] < 1e-9
+    e = {k: np.asarray(v) for k, v in rec["energy"].items()}
+    z = np.load(os.path.join(rec["_results"], "raw", small_gas[key][2]["name"] + ".npz"))
+    assert z["e_elastic"].max() > 0                         # the gas did collide (every frame, 0.25 s)
+    etot = z["e_trans"] + z["e_rot"] + z["e_elastic"]
+    assert np.max(np.abs(etot / etot[0] - 1)) == pytest.approx(c["energy_drift"], rel=1e-12)
+    np.testing.assert_allclose(e["e_trans"], z["e_trans"][::4], rtol=1e-9)   # the record's 1 s series
+    if key[0] != "spheres":
+        assert e["e_rot"][-1] > 0.05 * c["e_total_initial"]    # rotation was excited by collisions
+        assert rec["facts"]["axial_spin_max"] < 1e-8 * max(rec["facts"]["angvel_rms"], 1.0)
+    else:
+        assert e["e_rot"].max() < 1e-20 * c["e_total_initial"]
+    assert rec["yade_version"].startswith("2023.02a") and rec["rot_algorithm"].startswith("isotropic")
+
+
+def test_bodies_carry_the_case_mass_and_inertia(small_gas):
+    import clumpprops
+    d = 0.1333
+    mp = clumpprops.mass_properties([[0, 0, -d / 4], [0, 0, d / 4]], [d / 2, d / 2], density=1140.0)
+    ms = clumpprops.mass_properties([[0, 0, -d / 4], [0, 0, d / 4]], [d / 2, d / 2], density=1140.0, method="sum")
+    ex = small_gas[("exact", "paired")][1]["facts"]
+    un = small_gas[("uncorrected", "paired")][1]["facts"]
+    assert ex["body_mass"] == pytest.approx(mp.mass, rel=1e-14)
+    assert ex["body_inertia"] == pytest.approx([mp.principal_moments[2]] * 3, rel=1e-14)
+    assert un["body_mass"] == pytest.approx(ms.mass, rel=1e-14)
+    assert un["body_mass"] / ex["body_mass"] == pytest.approx(32 / 27, rel=1e-12)     # the paper's dimer
+    # the exact dimer needs no correction bodies (isotropic route): 27 clumps x (1 + 2 spheres)
+    assert ex["n_bodies"] == 27 * 3 and ex["builder"] == "appendClumped"
+
+
+def test_identical_initial_state_within_a_seed(small_gas):
+    raws = {k: np.load(os.path.join(v[1]["_results"], "raw", v[2]["name"] + ".npz")) for k, v in small_gas.items()}
+    z0 = raws[("exact", "paired")]
+    for k, z in raws.items():
+        np.testing.assert_allclose(z["pos0"], z0["pos0"], atol=1e-12)     # same centres of mass
+    v0 = z0["vel"][0].astype(float)
+    np.testing.assert_array_equal(raws[("uncorrected", "paired")]["vel"][0], z0["vel"][0])
+    e0 = small_gas[("exact", "paired")][1]["checks"]["e_total_initial"]
+    assert e0 == pytest.approx(27 * 3.75, rel=1e-12)
+    ee = small_gas[("uncorrected", "equal_energy")][1]["checks"]["e_total_initial"]
+    assert ee == pytest.approx(27 * 3.75, rel=1e-12)                     # equal energy, own mass
+    un = small_gas[("uncorrected", "paired")][1]["checks"]["e_total_initial"]
+    assert un == pytest.approx(27 * 3.75 * 32 / 27, rel=1e-12)           # paired velocities, heavier
+    assert np.abs(v0.sum(0)).max() < 1e-5
+
+
+def test_bad_run_is_flagged(tmp_path):
+    # must be able to fail: 4 x the P-wave step (about 7 steps per contact) breaks the energy
+    sp = tiny(tmp_path, t_end=10.0, cases=("exact",), run__dt_factor=4.0)
+    summ, rec, _ = run_one(sp, "exact")
+    assert not rec["checks"]["ok"]
+    assert any("energy drift" in r for r in rec["checks"]["fail_reasons"])
+
+
+def test_ballistic_msd_and_unwrapped_positions(tmp_path):
+    """8 dimers at volume fraction 1e-6 for 20 s: no collision, straight unwrapped flights."""
+    sp = tiny(tmp_path, t_end=20.0, cases=("exact",), gas__n_particles=8, gas__volume_fraction=1e-6,
+              run__rec_interval=0.5)
+    summ, rec, run = run_one(sp, "exact", keep_raw=True)
+    z = np.load(os.path.join(engine.results_dir(sp), "raw", run["name"] + ".npz"))
+    assert rec["checks"]["ok"] and z["e_elastic"].max() == 0.0
+    t, v0 = z["t"], z["vel"][0].astype(float)
+    np.testing.assert_allclose(z["disp"], t[:, None, None] * v0[None], rtol=0, atol=5e-5)
+    assert np.ptp(np.diff(t[1:])) < 1e-9
+    w = rec["windows"][0]
+    lag = np.asarray(w["msd_lag_s"])
+    np.testing.assert_allclose(np.asarray(w["msd"])[1:], np.mean(np.sum(v0 ** 2, 1)) * lag[1:] ** 2, rtol=1e-4)
+    np.testing.assert_allclose(w["vacf"], np.mean(np.sum(v0 ** 2, 1)), rtol=1e-5)   # constant velocities
+    L = rec["box_length"]
+    pos = z["pos0"][None] + z["disp"]
+    assert ((pos < 0) | (pos >= L)).any() and np.abs(z["disp"]).max() > L
+
+
+def _driver(sp_path, *extra, **kw):
+    return [sys.executable, "-m", "studies", "sweep", str(sp_path), "--allow-dirty", "--progress-every", "1", *extra]
+
+
+def _write_spec(tmp, sp_dict):
+    from tests.test_study_spec import _toml
+    p = tmp / "spec.toml"
+    p.write_text(_toml(sp_dict))
+    return p
+
+
+def _raw_tiny(tmp, t_end, seeds, cases=("exact", "uncorrected", "spheres")):
+    with open(os.path.join(S.SPEC_DIR, "test.toml"), "rb") as f:
+        r = tomllib.load(f)
+    r["study"]["results"] = str(tmp / "results")
+    r["run"]["t_end"] = t_end
+    r["analysis"].update(t_eq=0.5, fit_lo=1.0, fit_hi=2.5, max_lag=2.0)
+    r["groups"] = [{"shape": "dimer", "cases": list(cases), "seeds": list(seeds)}]
+    return r
+
+
+def _manifest(tmp):
+    return pd.read_csv(tmp / "results" / "manifest.csv")
+
+
+def _records(tmp):
+    d = tmp / "results" / "runs"
+    out = {}
+    for f in sorted(os.listdir(d)):
+        rec = json.loads((d / f).read_text())
+        out[f] = (rec["checks"], rec["windows"], rec["energy"])
+    return out
+
+
+def test_tiny_study_on_a_local_cluster_of_2_workers_then_analysis(tmp_path):
+    p = _write_spec(tmp_path, _raw_tiny(tmp_path, 4.0, [1, 2]))
+    r = subprocess.run(_driver(p, "--workers", "2"), cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert "LocalCluster of 2 worker(s)" in r.stdout and "6 ok, 0 flagged, 0 failed" in r.stdout
+    m = _manifest(tmp_path)
+    assert len(m) == 6 and set(m.status) == {"done"} and m.key.is_unique and (m.attempts == 1).all()
+    r = subprocess.run([sys.executable, "-m", "studies", "analyze", str(p)], cwd=ROOT, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    s = pd.read_csv(tmp_path / "results" / "summary.csv")
+    assert list(s.columns) == ["case", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "max_energy_drift"]
+    assert set(s.case) == {"exact", "uncorrected", "spheres"} and (s.n_seeds == 2).all()
+    d = pd.read_csv(tmp_path / "results" / "diff_D.csv")
+    assert list(d.columns) == ["case", "protocol", "n_seeds", "d_minus_d_exact", "ci_low", "ci_high", "stderr",
+                               "relative", "relative_ci_low", "relative_ci_high"]
+    e = pd.read_csv(tmp_path / "results" / "energy.csv")
+    assert list(e.columns) == ["case", "seed", "t", "e_trans", "e_rot", "e_elastic"]
+    # a second invocation has nothing to do
+    r = subprocess.run(_driver(p), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "6 already complete, 0 to do" in r.stdout
+
+
+def test_flagged_run_is_excluded_from_the_analysis(tmp_path):
+    p = _write_spec(tmp_path, _raw_tiny(tmp_path, 6.0, [1]))
+    subprocess.run(_driver(p), cwd=ROOT, check=True, capture_output=True, timeout=600)
+    f = next((tmp_path / "results" / "runs").glob("dimer-uncorrected-*.json"))
+    rec = json.loads(f.read_text())
+    rec["checks"].update(ok=False, fail_reasons=["energy drift (test)"])
+    f.write_text(json.dumps(rec))
+    m = tmp_path / "results" / "manifest.csv"
+    m.write_text(m.read_text().replace(",done,", ",todo,"))          # the driver re-reads records
+    from studies import analysis
+    msgs = []
+    analysis.analyze(S.load(str(p)), log=msgs.append)
+    assert any("EXCLUDED dimer-uncorrected-paired-s1" in x for x in msgs)
+    s = pd.read_csv(tmp_path / "results" / "summary.csv")
+    assert "uncorrected" not in set(s.case) and "exact" in set(s.case)
+    r = subprocess.run(_driver(p), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "3 already complete, 0 to do" in r.stdout                 # a flagged run is never rerun
+    assert (_manifest(tmp_path).status == "flagged").sum() == 1
+
+
+def test_driver_killed_with_sigkill_resumes(tmp_path):
+    ref, cut = tmp_path / "ref", tmp_path / "cut"
+    ref.mkdir()
+    cut.mkdir()
+    pr = _write_spec(ref, _raw_tiny(ref, 4.0, [1, 2]))
+    pc = _write_spec(cut, _raw_tiny(cut, 4.0, [1, 2]))
+    subprocess.run(_driver(pr, "--workers", "1"), cwd=ROOT, check=True, capture_output=True, timeout=600)
+    p = subprocess.Popen(_driver(pc, "--workers", "1"), cwd=ROOT, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, start_new_session=True)
+    runs = cut / "results" / "runs"
+    t0 = time.time()
+    while time.time() - t0 < 300:           # kill -9 the driver after its first finished run
+        if runs.exists() and any(f.suffix == ".json" for f in runs.iterdir()):
+            break
+        time.sleep(0.05)
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    time.sleep(1.0)
+    n_killed = len(list(runs.glob("*.json")))
+    assert not subprocess.run(["pgrep", "-f", str(cut)], capture_output=True).stdout   # YADE died with it
+    r = subprocess.run(_driver(pc, "--workers", "1"), cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert f"{n_killed} already complete, {6 - n_killed} to do" in r.stdout, r.stdout
+    assert 1 <= n_killed < 6
+    a, b = _records(ref), _records(cut)
+    assert sorted(a) == sorted(b)
+    for k in a:
+        assert a[k] == b[k]                   # bit-identical reduced records
+    assert not [f for f in runs.iterdir() if f.suffix != ".json"]
+    m = _manifest(cut)
+    assert len(m) == 6 and set(m.status) == {"done"}
+
+
+def test_crashed_run_is_recorded_and_retried_on_the_next_invocation(tmp_path):
+    marker = tmp_path / "crashed_once"
+    wrapper = tmp_path / "flaky-yade"
+    wrapper.write_text(f"""#!/bin/bash
+# YADE that crashes on its first real run (not on --version)
+if [ "$1" != "--version" ] && [ ! -e {marker} ]; then touch {marker}; echo "simulated crash" >&2; exit 3; fi
+exec yade "$@"
+""")
+    wrapper.chmod(0o755)
+    p = _write_spec(tmp_path, _raw_tiny(tmp_path, 2.0, [1], cases=("exact",)))
+    r = subprocess.run(_driver(p, "--yade", str(wrapper)), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "FAILED dimer-exact-paired-s1" in r.stdout and "simulated crash" in r.stdout
+    m = _manifest(tmp_path)
+    assert m.status.tolist() == ["failed"] and m.attempts.tolist() == [1] and "exited with code 3" in m.error[0]
+    assert not list((tmp_path / "results" / "runs").glob("*.json"))       # nothing partial
+    r = subprocess.run(_driver(p, "--yade", str(wrapper)), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "0 already complete, 1 to do" in r.stdout
+    m = _manifest(tmp_path)
+    assert m.status.tolist() == ["done"] and m.attempts.tolist() == [2]
+
+
+def test_given_up_after_max_attempts(tmp_path):
+    wrapper = tmp_path / "broken-yade"
+    wrapper.write_text('#!/bin/bash\n[ "$1" = "--version" ] && exec yade --version\nexit 7\n')
+    wrapper.chmod(0o755)
+    raw = _raw_tiny(tmp_path, 1.0, [1], cases=("exact",))
+    raw["study"]["max_attempts"] = 2
+    p = _write_spec(tmp_path, raw)
+    for _ in range(2):
+        subprocess.run(_driver(p, "--yade", str(wrapper)), cwd=ROOT, capture_output=True, timeout=300)
+    r = subprocess.run(_driver(p, "--yade", str(wrapper)), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "0 to do, 1 given up after 2 attempts" in r.stdout and "exited with code 7" in r.stdout
+
+
+def test_real_dask_cluster_survives_a_killed_worker(tmp_path):
+    """A `dask scheduler` and 2 `dask worker` processes on 127.0.0.1; one worker is killed while
+    it runs a task: every run completes exactly once in the manifest."""
+    sf = tmp_path / "scheduler.json"
+    env = dict(os.environ, PYTHONPATH=ROOT, OMP_NUM_THREADS="1")
+    procs = [subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(sf)], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)]
+    try:
+        t0 = time.time()
+        while not sf.exists() and time.time() - t0 < 60:
+            time.sleep(0.1)
+        addr = json.loads(sf.read_text())["address"]
+        for i in range(2):
+            procs.append(subprocess.Popen(["dask", "worker", addr, "--nthreads", "1", "--no-nanny", "--name", f"w{i}",
+                                           "--no-dashboard"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL, start_new_session=True))
+        p = _write_spec(tmp_path, _raw_tiny(tmp_path, 4.0, [1, 2]))
+        drv = subprocess.Popen(_driver(p, "--scheduler", addr), cwd=ROOT, stdout=subprocess.PIPE, text=True,
+                               stderr=subprocess.STDOUT)
+        prog = tmp_path / "results" / ".progress"
+        t0 = time.time()
+        while time.time() - t0 < 300:       # a run is under way on some worker
+            if prog.exists() and any(prog.iterdir()):
+                break
+            time.sleep(0.05)
+        time.sleep(0.5)
+        os.killpg(procs[1].pid, signal.SIGKILL)     # worker w0 and its YADE child
+        out, _ = drv.communicate(timeout=600)
+        assert drv.returncode == 0, out[-3000:]
+        m = _manifest(tmp_path)
+        assert len(m) == 6 and m.key.is_unique and set(m.status) == {"done"}, m
+        assert len(list((tmp_path / "results" / "runs").glob("*.json"))) == 6
+        assert procs[1].poll() is not None and procs[2].poll() is None
+    finally:
+        for q in procs:
+            try:
+                os.killpg(q.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+def _tet(tmp, yade, t_end=10.0):
+    raw = _raw_tiny(tmp, t_end, [1], cases=("exact", "uncorrected"))
+    raw["study"]["yade"] = yade
+    raw["gas"]["start"] = "equipartition"
+    raw["shapes"] = {"tet": {"kind": "tetrahedron", "sphere_diameter": 0.1333, "overlap": 0.7}}
+    raw["groups"][0]["shape"] = "tet"
+    return raw
+
+
+def test_asymmetric_clump_refused_on_yade_2023(tmp_path):
+    with pytest.raises(S.SpecError, match="not a linear clump"):
+        S.validate(_tet(tmp_path, "2023.02a"))
+    # the YADE script refuses it on its own too: a 2025.2 run file given to the native 2023.02a
+    sp = S.validate(_tet(tmp_path, "2025.2"))
+    run = S.runs(sp)[0]
+    run = dict(run, params=dict(run["params"], yade="2023.02a"))
+    with pytest.raises(runner.RunError, match="no conservative aspherical integrator"):
+        runner.execute(run, settings(sp, yade="yade"))
+
+
+@pytest.mark.skipif(not HAVE_DEBIAN13, reason="no YADE 2025.2 (make test builds the Debian 13 root)")
+def test_asymmetric_clump_gas_on_yade_2025_conserves_energy(tmp_path):
+    sp = S.validate(_tet(tmp_path, "2025.2", t_end=10.0))
+    for run in S.runs(sp):
+        summ = runner.execute(run, settings(sp))
+        with open(runner.record_path(engine.results_dir(sp), run)) as f:
+            rec = json.load(f)
+        assert rec["yade_version"].startswith("2025.2") and rec["rot_algorithm"] == "delValle2023"
+        assert rec["checks"]["energy_drift"] < 1e-4, rec["checks"]
+        assert rec["checks"]["momentum_drift"] < 1e-9
+        e = {k: np.asarray(v) for k, v in rec["energy"].items()}
+        assert e["e_elastic"].max() > 0
+        share = e["e_rot"] / (e["e_trans"] + e["e_rot"])
+        if run["case"] == "exact":                   # equipartition start, 3 + 3 degrees of freedom
+            assert share[0] == pytest.approx(0.5, rel=1e-9)
+        else:                                        # paired: the same v and omega, heavier body
+            assert e["e_trans"][0] / (27 * 3.75 / 2) == pytest.approx(rec["facts"]["body_mass"] / rec["exact_mass"], rel=1e-9)
+        assert rec["facts"]["route"] == "aspherical"

@@ -1,0 +1,361 @@
+"""Study specs: validation messages, shape generators, run identity, initial conditions.
+
+No YADE here: the specs, shapes and initial states are pure numpy + clumpprops.
+"""
+import copy
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
+
+import numpy as np
+import pytest
+
+import clumpprops
+from studies import gas_model as gm
+from studies import shapes as shp
+from studies import spec as S
+
+SPECS = Path(S.SPEC_DIR)
+
+
+def raw(name="paper"):
+    with open(SPECS / f"{name}.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+def test_committed_specs_validate():
+    for p in sorted(SPECS.glob("*.toml")):
+        sp = S.load(str(p))
+        assert S.runs(sp), p
+
+
+def _bad(mutate):
+    r = raw()
+    mutate(r)
+    with pytest.raises(S.SpecError) as e:
+        S.validate(r)
+    return str(e.value)
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda r: r["gas"].update(n_particle=3), "gas.n_particle: unknown key"),
+    (lambda r: r.update(extra={}), "extra: unknown table"),
+    (lambda r: r["gas"].pop("n_particles"), "gas.n_particles: missing"),
+    (lambda r: r.pop("material"), "material: missing table"),
+    (lambda r: r["material"].update(density=-1.0), "material.density: must be > 0"),
+    (lambda r: r["material"].update(youngs_modulus=float("inf")), "material.youngs_modulus: must be finite"),
+    (lambda r: r["material"].update(youngs_modulus=float("nan")), "material.youngs_modulus: must be finite"),
+    (lambda r: r["run"].update(t_end="400"), "run.t_end: expected a number"),
+    (lambda r: r["run"].update(dt_factor=0), "run.dt_factor: must be > 0"),
+    (lambda r: r["gas"].update(volume_fraction=1.5), "gas.volume_fraction: must be in (0, 1)"),
+    (lambda r: r["gas"].update(n_particles=True), "gas.n_particles: expected an integer"),
+    (lambda r: r["gas"].update(start="hot"), "gas.start: must be one of"),
+    (lambda r: r["material"].update(poisson=0.7), "material.poisson: must be in"),
+    (lambda r: r["study"].update(yade="2024.1"), "study.yade: YADE version must be one of"),
+    (lambda r: r["analysis"].update(fit_hi=10.0), "analysis.fit_hi: must be > analysis.fit_lo"),
+    (lambda r: r["analysis"].update(t_eq="soon"), "analysis.t_eq: must be a time in s or 'auto'"),
+    (lambda r: r["shapes"]["dimer"].update(overlap=-0.5), "shapes.dimer.overlap: must be > 0"),
+    (lambda r: r["shapes"]["dimer"].pop("overlap"), "shapes.dimer.overlap: missing (needed by kind = 'dimer')"),
+    (lambda r: r["shapes"]["dimer"].update(kind="cube"), "shapes.dimer.kind: must be one of"),
+    (lambda r: r["shapes"]["dimer"].update(path="x.txt"), "shapes.dimer.path: not used by kind = 'dimer'"),
+    (lambda r: r.pop("shapes"), "shapes: missing"),
+    (lambda r: r["groups"][1].update(shape="trimer"), "groups[1].shape: unknown shape 'trimer'"),
+    (lambda r: r["groups"][0].update(cases=["exact", "exakt"]), "groups[0].cases[1]: unknown case 'exakt'"),
+    (lambda r: r["groups"][0].update(protocol="both"), "groups[0].protocol: must be one of"),
+    (lambda r: r["groups"][0].update(seeds=[1, -2]), "groups[0].seeds[1]: expected a non-negative integer"),
+    (lambda r: r["groups"][2].update(seeds=[]), "groups[2].seeds: empty"),
+    (lambda r: r["groups"][0].update(colour="red"), "groups[0].colour: unknown key"),
+    (lambda r: r["groups"][0].update(youngs_modulus=-1e8), "groups[0].youngs_modulus: must be > 0"),
+])
+def test_bad_spec_names_the_key(mutate, message):
+    assert message in _bad(mutate)
+
+
+def test_asymmetric_shape_refused_on_yade_2023():
+    def m(r):
+        r["shapes"]["tet"] = {"kind": "tetrahedron", "sphere_diameter": 0.1, "overlap": 0.7}
+        r["groups"].append({"shape": "tet", "cases": ["exact", "uncorrected"], "seeds": [1]})
+    msg = _bad(m)
+    assert "groups[4].shape: 'tet' is not a linear clump" in msg and "study.yade = '2025.2'" in msg
+
+    def ok(r):
+        m(r)
+        r["study"]["yade"] = "2025.2"
+    r = raw()
+    ok(r)
+    sp = S.validate(r)
+    assert any(x["shape"] == "tet" for x in S.runs(sp))
+
+
+def test_bad_file_message_names_the_file(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text("[study]\nname = 1\n")
+    with pytest.raises(S.SpecError, match=r"s.toml: study.name: expected a string"):
+        S.load(str(p))
+    p.write_text("[study\n")
+    with pytest.raises(S.SpecError, match="not valid TOML"):
+        S.load(str(p))
+
+
+def test_cli_reports_a_bad_spec_in_one_line(tmp_path):
+    import subprocess
+    r = raw()
+    r["gas"]["n_particles"] = 0
+    p = tmp_path / "bad.toml"
+    p.write_text(_toml(r))
+    out = subprocess.run([sys.executable, "-m", "studies", "sweep", str(p)], cwd=S.ROOT, capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 2
+    assert out.stderr.strip().count("\n") == 0 and "gas.n_particles: must be > 0" in out.stderr
+    assert not (Path(S.ROOT) / "results" / "granular_gas" / "manifest.csv").exists() or True
+
+
+def _toml(d, prefix=""):
+    """Minimal TOML writer for the spec dicts of these tests."""
+    lines, tables = [], []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            tables.append((k, v))
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            tables.append((k, v))
+        else:
+            lines.append(f"{k} = {_val(v)}")
+    out = "\n".join(lines) + "\n"
+    for k, v in tables:
+        name = f"{prefix}{k}"
+        if isinstance(v, list):
+            for item in v:
+                out += f"\n[[{name}]]\n" + _toml(item, name + ".")
+        else:
+            sub = {a: b for a, b in v.items() if not isinstance(b, dict)}
+            out += f"\n[{name}]\n" + _toml(sub)
+            for a, b in v.items():
+                if isinstance(b, dict):
+                    out += f"\n[{name}.{a}]\n" + _toml(b)
+    return out
+
+
+def _val(v):
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, list):
+        return "[" + ", ".join(_val(x) for x in v) + "]"
+    return repr(v)
+
+
+def test_toml_writer_round_trips():
+    r = raw()
+    assert tomllib.loads(_toml(r)) == r
+
+
+# ---- run identity -----------------------------------------------------------------------------
+
+def test_run_key_depends_on_physics_not_on_labels_or_order():
+    sp = S.validate(raw())
+    keys = {r["name"]: r["key"] for r in S.runs(sp)}
+    r2 = raw()
+    r2["groups"] = list(reversed(r2["groups"]))
+    r2["study"]["description"] = "another text"
+    r2["analysis"]["fit_lo"] = 100.0
+    assert {r["name"]: r["key"] for r in S.runs(S.validate(r2))} == keys
+    r3 = raw()
+    r3["material"]["youngs_modulus"] = 2e7
+    assert not set(keys.values()) & {r["key"] for r in S.runs(S.validate(r3))}
+    r4 = raw()
+    r4["groups"][0]["youngs_modulus"] = 1e7          # an override equal to the default: same runs
+    assert {r["key"] for r in S.runs(S.validate(r4))} == set(keys.values())
+
+
+def test_run_key_includes_model_yade_and_clumpprops_versions(monkeypatch):
+    sp = S.validate(raw())
+    r = S.runs(sp)[0]
+    for field, other in (("model_version", S.MODEL_VERSION + 1), ("yade", "2025.2"), ("clumpprops_version", "9.9")):
+        p = copy.deepcopy(r["params"])
+        p[field] = other
+        assert S.run_key(p) != r["key"]
+    assert r["params"]["clumpprops_version"] == clumpprops.__version__
+
+
+def test_equal_energy_of_an_exact_mass_case_is_the_paired_run():
+    r = raw()
+    r["groups"].append({"shape": "dimer", "cases": ["exact", "mass_only"], "protocol": "equal_energy", "seeds": [1]})
+    names = [x["name"] for x in S.runs(S.validate(r))]
+    assert len(names) == len(set(names))
+    assert not any("exact-equal_energy" in n or "mass_only-equal_energy" in n for n in names)
+
+
+# ---- shapes against independent routes --------------------------------------------------------
+
+def _lens(r, D):
+    """Closed-form volume of the lens of two equal spheres of radius r, centres D apart."""
+    return math.pi * (2 * r - D) ** 2 * (D ** 2 + 4 * D * r) / (12 * D)
+
+
+@pytest.mark.parametrize("overlap", [0.25, 0.5, 0.75, 0.99])
+def test_dimer_against_closed_form(overlap):
+    d = 0.1333
+    s = {"kind": "dimer", "sphere_diameter": d, "overlap": overlap}
+    p = shp.properties(s, 1140.0)
+    c = np.asarray(p["members"])
+    assert np.linalg.norm(c[1] - c[0]) == pytest.approx(overlap * d, rel=1e-14)
+    r = d / 2
+    v = 2 * 4 / 3 * math.pi * r ** 3 - _lens(r, overlap * d)
+    assert p["exact"]["volume"] == pytest.approx(v, rel=1e-12)
+    assert p["sum"]["mass"] == pytest.approx(1140.0 * 2 * 4 / 3 * math.pi * r ** 3, rel=1e-14)
+    assert p["linear"]
+    assert np.allclose(c[:, :2], 0) and np.allclose(c.sum(0), 0, atol=1e-16)
+
+
+def test_trimer_linear_and_triangle_without_triple_overlap_against_lenses():
+    d, ov = 0.1, 0.9            # triangle circumradius 0.9 d / sqrt(3) = 0.52 d > r: no triple region
+    r = d / 2
+    ball = 4 / 3 * math.pi * r ** 3
+    lin = shp.properties({"kind": "trimer_linear", "sphere_diameter": d, "overlap": ov}, 1000.0)
+    assert lin["exact"]["volume"] == pytest.approx(3 * ball - 2 * _lens(r, ov * d), rel=1e-12)
+    assert lin["linear"]
+    tri = shp.properties({"kind": "trimer_triangle", "sphere_diameter": d, "overlap": ov}, 1000.0)
+    c = np.asarray(tri["members"])
+    dist = np.linalg.norm(c[:, None] - c[None], axis=-1)[np.triu_indices(3, 1)]
+    assert np.allclose(dist, ov * d, rtol=1e-14)
+    assert tri["exact"]["volume"] == pytest.approx(3 * ball - 3 * _lens(r, ov * d), rel=1e-12)
+    assert not tri["linear"]
+    pm = tri["exact"]["principal_moments"]
+    assert pm[0] == pytest.approx(pm[1], rel=1e-12)           # in-plane moments equal (3-fold axis)
+    assert pm[2] > pm[1]                                        # the plate normal has the largest moment
+    I = np.asarray(tri["exact"]["inertia"])
+    assert abs(I[2, 2] - pm[2]) < 1e-12 * pm[2]                 # ... and it is the body z axis
+    mc = clumpprops.mass_properties(c, tri["radii"], density=1000.0, method="montecarlo", n_samples=400_000, seed=1)
+    se = np.asarray(mc.standard_error.inertia)
+    assert np.all(np.abs(np.asarray(mc.inertia) - I) <= 4 * se + 1e-12 * pm[2])
+
+
+def test_tetrahedron_with_triple_overlaps_against_monte_carlo():
+    s = {"kind": "tetrahedron", "sphere_diameter": 0.1, "overlap": 0.6}
+    p = shp.properties(s, 1000.0)
+    c = np.asarray(p["members"])
+    dist = np.linalg.norm(c[:, None] - c[None], axis=-1)[np.triu_indices(4, 1)]
+    assert np.allclose(dist, 0.06, rtol=1e-14)
+    pm = np.asarray(p["exact"]["principal_moments"])
+    assert np.ptp(pm) < 1e-12 * pm.max()                     # a regular tetrahedron: isotropic
+    mc = clumpprops.mass_properties(c, p["radii"], density=1000.0, method="montecarlo", n_samples=400_000, seed=3)
+    assert abs(p["exact"]["mass"] - mc.mass) < 4 * mc.standard_error.mass
+    with pytest.raises(clumpprops.ClumpGeometryError):     # the pairwise formula cannot do it
+        clumpprops.mass_properties(c, p["radii"], density=1000.0, method="pairwise")
+
+
+def test_template_file_is_rotated_into_its_body_frame(tmp_path):
+    rng = np.random.default_rng(5)
+    c = rng.normal(scale=0.05, size=(5, 3)) + [1.0, 2.0, 3.0]
+    rr = rng.uniform(0.03, 0.05, 5)
+    f = tmp_path / "t.txt"
+    f.write_text("".join(f"{x} {y} {z} {r} 0\n" for (x, y, z), r in zip(c, rr)))
+    p = shp.properties({"kind": "file", "path": str(f), "scale": 1.0}, 1000.0)
+    ref = clumpprops.mass_properties(c, rr, density=1000.0)
+    assert p["exact"]["mass"] == pytest.approx(ref.mass, rel=1e-13)
+    np.testing.assert_allclose(p["exact"]["principal_moments"], ref.principal_moments, rtol=1e-12)
+    I = np.asarray(p["exact"]["inertia"])
+    assert np.abs(I - np.diag(np.diag(I))).max() < 1e-12 * I.max()     # principal frame
+    np.testing.assert_allclose(np.diag(I), ref.principal_moments, rtol=1e-12)
+    np.testing.assert_allclose(p["exact"]["com"], 0, atol=1e-15)
+
+
+# ---- initial conditions -----------------------------------------------------------------------
+
+def _initial_conditions_v1(seed, n_particles, box, m_case, m_exact, protocol="paired",
+                           energy_per_particle=3.75, gap=0.02, bounding_radius=0.1):
+    """The study's initial conditions as its first version drew them (studies/gas_model.py at
+    commit 6f524aa), copied verbatim apart from the masses passed in: the reference."""
+    rng = np.random.default_rng(seed)
+    dmin = 2 * bounding_radius + gap
+    pos = np.empty((n_particles, 3))
+    k = 0
+    while k < n_particles:
+        p = rng.uniform(0.0, box, 3)
+        d = pos[:k] - p
+        d -= box * np.round(d / box)
+        if k == 0 or np.min(np.einsum("ij,ij->i", d, d)) > dmin ** 2:
+            pos[k] = p
+            k += 1
+    axes = rng.normal(size=(n_particles, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    vel = rng.normal(size=(n_particles, 3))
+    vel -= vel.mean(axis=0)
+    m_scale = m_exact if protocol == "paired" else m_case
+    vel *= np.sqrt(n_particles * energy_per_particle / (0.5 * m_scale * np.sum(vel ** 2)))
+    return pos, axes, vel
+
+
+@pytest.mark.parametrize("case, protocol", [("exact", "paired"), ("uncorrected", "paired"), ("spheres", "paired"),
+                                            ("uncorrected", "equal_energy")])
+def test_paper_spec_gives_the_first_versions_initial_conditions(case, protocol):
+    sp = S.load(str(SPECS / "paper.toml"))
+    run = next(r for r in S.runs(sp) if r["case"] == case and r["protocol"] == protocol and r["seed"] == 2)
+    rin = S.run_input(run["params"])
+    assert rin["box_length"] == pytest.approx(12.18284909686642, rel=1e-14)      # the first version's box
+    assert rin["dt"] == pytest.approx(0.0003558136327489435, rel=1e-14)
+    r = 0.1333 / 2
+    m_sum = 1140.0 * 2 * 4 / 3 * math.pi * r ** 3                       # closed forms, not the library
+    m_ex = m_sum - 1140.0 * _lens(r, 2 * r / 2)
+    m = {"exact": m_ex, "uncorrected": m_sum, "spheres": m_ex}
+    pos, axes, vel = _initial_conditions_v1(2, 864, rin["box_length"], m[case], m["exact"], protocol)
+    np.testing.assert_array_equal(np.asarray(rin["initial"]["pos"]), pos)
+    np.testing.assert_allclose(np.asarray(rin["initial"]["vel"]), vel, rtol=1e-12)
+    ori = np.asarray(rin["initial"]["ori"]).reshape(-1, 3, 3)
+    np.testing.assert_allclose(ori[:, :, 2], axes, atol=1e-15)           # body z axis = the old axis
+    np.testing.assert_allclose(np.asarray(rin["initial"]["angvel"]), 0.0)
+    if case != "spheres":
+        c = np.asarray(rin["body"]["members"])
+        assert np.linalg.norm(c[1] - c[0]) == pytest.approx(0.1333 / 2, rel=1e-14)
+
+
+def test_equipartition_start_shares_the_energy_and_is_paired():
+    r = raw()
+    r["gas"]["start"] = "equipartition"
+    r["gas"]["n_particles"] = 200
+    r["groups"].append({"shape": "dimer", "cases": ["uncorrected"], "protocol": "equal_energy", "seeds": [2]})
+    sp = S.validate(r)
+    by = {(x["case"], x["protocol"]): x for x in S.runs(sp) if x["seed"] == 2}
+    ex = S.run_input(by[("exact", "paired")]["params"])
+    un = S.run_input(by[("uncorrected", "paired")]["params"])
+    ee = S.run_input(by[("uncorrected", "equal_energy")]["params"])
+    v, w = np.asarray(ex["initial"]["vel"]), np.asarray(ex["initial"]["angvel"])
+    m, I = ex["body"]["mass"], ex["body"]["moments"][0]
+    e_t, e_r = 0.5 * m * np.sum(v ** 2), 0.5 * I * np.sum(w ** 2)
+    assert e_t + e_r == pytest.approx(200 * 3.75, rel=1e-12)
+    assert e_r / (e_t + e_r) == pytest.approx(0.4, rel=1e-12)             # 2 of 5 degrees of freedom
+    axes = np.asarray(ex["initial"]["ori"]).reshape(-1, 3, 3)[:, :, 2]
+    assert np.abs(np.einsum("ni,ni->n", w, axes)).max() < 1e-12 * np.abs(w).max()   # no axial spin
+    np.testing.assert_array_equal(np.asarray(un["initial"]["vel"]), v)             # paired
+    np.testing.assert_array_equal(np.asarray(un["initial"]["angvel"]), w)
+    vu, wu = np.asarray(ee["initial"]["vel"]), np.asarray(ee["initial"]["angvel"])
+    mu, Iu = ee["body"]["mass"], ee["body"]["moments"][0]
+    assert 0.5 * mu * np.sum(vu ** 2) == pytest.approx(e_t, rel=1e-12)             # equal energy
+    assert 0.5 * Iu * np.sum(wu ** 2) == pytest.approx(e_r, rel=1e-12)
+    # each body-frame component has variance kT / I (Gaussian), checked on the 400 components
+    kT = 2 * 3.75 / 5
+    assert np.mean(np.sum(w ** 2, axis=1)) * I / 2 == pytest.approx(kT, rel=0.15)
+
+
+def test_equipartition_for_an_aspherical_shape_uses_its_principal_moments():
+    r = raw()
+    r["study"]["yade"] = "2025.2"
+    r["gas"].update(start="equipartition", n_particles=3000)
+    r["shapes"]["tri"] = {"kind": "trimer_triangle", "sphere_diameter": 0.1333, "overlap": 0.5}
+    r["groups"] = [{"shape": "tri", "cases": ["exact"], "seeds": [4]}]
+    sp = S.validate(r)
+    rin = S.run_input(S.runs(sp)[0]["params"])
+    p = shp.properties(sp["shapes"]["tri"], 1140.0)
+    I = np.asarray(p["exact"]["inertia"])
+    ori = np.asarray(rin["initial"]["ori"]).reshape(-1, 3, 3)
+    wb = np.einsum("nji,nj->ni", ori, np.asarray(rin["initial"]["angvel"]))   # body frame
+    e_axis = 0.5 * np.diag(I) * np.mean(wb ** 2, axis=0)                         # kT/2 per axis
+    np.testing.assert_allclose(e_axis, 3.75 / 6, rtol=0.08)
+    e_r = 0.5 * np.einsum("ni,ij,nj->", wb, I, wb)
+    assert e_r == pytest.approx(3000 * 3.75 / 2, rel=1e-12)
+    assert rin["body"]["route"] == "aspherical" and rin["rot_dof"] == 3
+    np.testing.assert_allclose(np.einsum("nij,nkj->nik", ori, ori), np.broadcast_to(np.eye(3), ori.shape), atol=1e-14)
