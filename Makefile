@@ -6,10 +6,10 @@ setup:
 # main job: the worked example, then the paper's Fig. 2 at the quick scale (~15 min, 2 cores)
 run: setup
 	$(PY) examples/paper_dimer.py
-	OMP_NUM_THREADS=1 $(PY) -m studies.granular_gas run --scale quick
+	OMP_NUM_THREADS=1 $(PY) -m studies run quick --allow-dirty
 # the paper-scale study (the committed results/granular_gas)
 paper: setup
-	OMP_NUM_THREADS=1 $(PY) -m studies.granular_gas run --scale paper
+	OMP_NUM_THREADS=1 $(PY) -m studies run paper
 test: setup
 	OMP_NUM_THREADS=1 $(PY) -m pytest -q tests
 example: setup
