@@ -1,14 +1,19 @@
-"""Granular-gas study benchmarks (issue 5).
+"""Gas-study benchmarks (issues 5 and 8), side by side in one run.
 
-1. Recording overhead: the paper's 864-dimer gas (case ``exact``) run by
-   yade_scripts/granular_gas.py with recording + checks (``record=1``) and bare
-   (``record=0``: same scene and engines, no recording PyRunner), the two processes side
-   by side on the two cores, repeated with the roles' start order swapped.
-2. MSD analysis cost vs trajectory length T (864 particles): the FFT routine against the
+1. Recording overhead: the paper's 864-dimer gas (case ``exact``) from one run file, with
+   recording (``record: true``) and bare (no recording PyRunner), two YADE processes side by
+   side on the two cores, repeated with the start order swapped.  Target: recorded steps/s
+   >= 0.95 x bare.
+2. Correction bodies: the exact dimer as the study builds it now (``appendClumped`` with the
+   exact mass and I_perp set: 3 bodies per clump) against the first version's build
+   (``clumpprops.yade.append_clump``: one extra correction member per clump), side by side.
+3. Driver + Dask overhead per run: a sweep of N tiny runs (27 particles, 1.5 s) on a
+   LocalCluster of one worker; overhead = (sweep wall - sum of the YADE processes' wall) / N.
+   Target: <= 1 s per run.
+4. MSD analysis cost vs trajectory length T (864 particles): the FFT routine against the
    O(T^2) definition; fitted exponents.
-3. Wall times of the study commands, read from the sweeps' params.json when present.
 
-    .venv/bin/python benchmarks/bench_gas.py [--t-end 20] [--repeats 2] [--skip-yade]
+    .venv/bin/python benchmarks/bench_gas.py [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
 
 Writes benchmarks/results/bench_gas.json and prints a Markdown table.  The machine is
 shared: steps/s depend on what else runs; the side-by-side pairs see the same load.
@@ -16,54 +21,99 @@ shared: steps/s depend on what else runs; the side-by-side pairs see the same lo
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import os
 import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+from studies import engine, runner  # noqa: E402
+from studies import spec as S  # noqa: E402
 from studies.msd import msd_bruteforce, msd_fft  # noqa: E402
 
 SCRIPT = os.path.join(ROOT, "yade_scripts", "granular_gas.py")
 
 
-def start(tmp, name, **params):
-    params = dict(params, out=os.path.join(tmp, name), progress_period=1000.0)
+def paper_run_input(t_end):
+    sp = S.load(os.path.join(S.SPEC_DIR, "paper.toml"))
+    run = next(r for r in S.runs(sp) if r["case"] == "exact" and r["seed"] == 1)
+    p = copy.deepcopy(run["params"])
+    p["run"]["t_end"] = t_end
+    return S.run_input(p, progress_period=1000.0)
+
+
+def start(tmp, name, rin):
+    path = os.path.join(tmp, name + ".run.json")
+    with open(path, "w") as f:
+        json.dump(rin, f)
     table = os.path.join(tmp, name + ".table")
     with open(table, "w") as f:
-        f.write(" ".join(params) + "\n" + " ".join(repr(v) for v in params.values()) + "\n")
+        f.write(f"run out\n{path!r} {os.path.join(tmp, name)!r}\n")
     env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{table}:2")
     return subprocess.Popen(["yade", "-n", "-x", SCRIPT], env=env, cwd=tmp, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
 
 
-def bench_overhead(t_end, repeats, case="exact"):
+def side_by_side(t_end, repeats, variants):
+    """steps/s of two run-file variants {label: run_input} run as simultaneous pairs."""
     rows = []
+    labels = list(variants)
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(repeats):
-            order = [("rec", 1), ("bare", 0)] if r % 2 == 0 else [("bare", 0), ("rec", 1)]
-            procs = {lab: start(tmp, f"{lab}{r}", case=case, t_end=t_end, record=rec) for lab, rec in order}
+            order = labels if r % 2 == 0 else labels[::-1]
+            procs = {lab: start(tmp, f"{lab}{r}", variants[lab]) for lab in order}
             for lab, p in procs.items():
                 if p.wait() != 0:
                     raise RuntimeError(f"yade run {lab}{r} failed")
             res = {}
-            for lab, _ in order:
+            for lab in labels:
                 with open(os.path.join(tmp, f"{lab}{r}.json")) as f:
                     res[lab] = json.load(f)
-            rows.append({"repeat": r, "steps": res["rec"]["n_steps"],
-                         "steps_per_s_recorded": res["rec"]["steps_per_s"],
-                         "steps_per_s_bare": res["bare"]["steps_per_s"],
-                         "overhead": res["bare"]["steps_per_s"] / res["rec"]["steps_per_s"] - 1,
-                         "energy_drift": res["rec"]["energy_drift"]})
-            print(f"[bench] overhead pair {r}: recorded {rows[-1]['steps_per_s_recorded']:.0f} steps/s, "
-                  f"bare {rows[-1]['steps_per_s_bare']:.0f} steps/s, overhead {100 * rows[-1]['overhead']:+.1f} %",
-                  flush=True)
+            row = {"repeat": r, "steps": res[labels[0]]["n_steps"]}
+            for lab in labels:
+                row[f"steps_per_s_{lab}"] = res[lab]["steps_per_s"]
+                row[f"bodies_{lab}"] = res[lab]["n_bodies"]
+            row["ratio"] = res[labels[0]]["steps_per_s"] / res[labels[1]]["steps_per_s"]
+            rows.append(row)
+            print(f"[bench] pair {r}: " + ", ".join(f"{lab} {row[f'steps_per_s_{lab}']:.0f} steps/s" for lab in labels)
+                  + f", ratio {labels[0]}/{labels[1]} {row['ratio']:.3f}", flush=True)
     return rows
+
+
+def bench_driver(n_runs):
+    with open(os.path.join(S.SPEC_DIR, "test.toml"), "rb") as f:
+        raw = tomllib.load(f)
+    with tempfile.TemporaryDirectory() as tmp:
+        raw["study"]["results"] = tmp
+        raw["run"]["t_end"] = 1.5
+        raw["analysis"].update(t_eq=0.0, fit_lo=0.1, fit_hi=0.2, max_lag=0.25, sensitivity=[])
+        raw["groups"] = [{"shape": "dimer", "cases": ["exact"], "seeds": list(range(1, n_runs + 1))}]
+        sp = S.validate(raw)
+        sp["path"] = "bench"
+        t0 = time.perf_counter()
+        engine.sweep(sp, workers=1, allow_dirty=True, progress_every=1e9, log=lambda *a: None)
+        wall = time.perf_counter() - t0
+        rows, recs = engine.read_manifest(tmp), []
+        assert all(r["status"] == "done" for r in rows.values()), rows
+        for r in rows.values():
+            with open(os.path.join(tmp, r["record"])) as f:
+                recs.append(json.load(f))
+        yade_wall = sum(r["wall_s"] for r in recs)
+        yade_inner = sum(r["facts"]["wall_setup_s"] + r["facts"]["wall_run_s"] for r in recs)
+    out = {"n_runs": n_runs, "sweep_wall_s": wall, "yade_process_wall_s": yade_wall,
+           "yade_in_script_s": yade_inner, "overhead_per_run_s": (wall - yade_wall) / n_runs,
+           "yade_startup_per_run_s": (yade_wall - yade_inner) / n_runs}
+    print(f"[bench] driver: {n_runs} runs in {wall:.1f} s, YADE processes {yade_wall:.1f} s; driver + Dask "
+          f"overhead {out['overhead_per_run_s']:.2f} s per run (YADE's own start-up "
+          f"{out['yade_startup_per_run_s']:.2f} s per run, not counted)", flush=True)
+    return out
 
 
 def bench_msd(lengths=(250, 500, 1000, 2000, 4000, 8000), brute_max=1000, n=864):
@@ -91,47 +141,46 @@ def bench_msd(lengths=(250, 500, 1000, 2000, 4000, 8000), brute_max=1000, n=864)
     return rows, exp_fft, exp_bf
 
 
-def study_walls():
-    out = {}
-    for scale, folder in (("quick", "granular_gas_quick"), ("paper", "granular_gas")):
-        p = os.path.join(ROOT, "results", folder, "params.json")
-        if os.path.exists(p):
-            with open(p) as f:
-                j = json.load(f)
-            out[scale] = {"wall_sweep_s": j.get("wall_sweep_s"), "wall_run_s_total": j.get("wall_run_s_total"),
-                          "n_runs": j.get("n_runs"), "t_end": j.get("t_end")}
-    return out
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--t-end", type=float, default=20.0)
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--n-runs", type=int, default=8)
     ap.add_argument("--skip-yade", action="store_true")
     a = ap.parse_args()
-    res = {"machine": os.uname().nodename, "cpus": os.cpu_count(),
-           "load_avg_at_start": os.getloadavg()}
+    res = {"machine": os.uname().nodename, "cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg(),
+           "date": time.strftime("%Y-%m-%d %H:%M")}
     if not a.skip_yade:
-        rows = bench_overhead(a.t_end, a.repeats)
-        res["overhead"] = rows
-        res["overhead_mean"] = float(np.mean([r["overhead"] for r in rows]))
+        rin = paper_run_input(a.t_end)
+        bare = dict(rin, record=False)
+        res["recording"] = side_by_side(a.t_end, a.repeats, {"recorded": rin, "bare": bare})
+        res["recording_ratio_mean"] = float(np.mean([r["ratio"] for r in res["recording"]]))
+        old = copy.deepcopy(rin)
+        old["body"]["builder"] = "clumpprops"
+        res["correction_bodies"] = side_by_side(a.t_end, a.repeats, {"now": rin, "first_version": old})
+        res["correction_ratio_mean"] = float(np.mean([r["ratio"] for r in res["correction_bodies"]]))
+        res["driver"] = bench_driver(a.n_runs)
     rows, ef, eb = bench_msd()
     res.update(msd=rows, msd_fft_exponent=ef, msd_bruteforce_exponent=eb)
-    res["study_walls"] = study_walls()
     os.makedirs(os.path.join(ROOT, "benchmarks", "results"), exist_ok=True)
     with open(os.path.join(ROOT, "benchmarks", "results", "bench_gas.json"), "w") as f:
         json.dump(res, f, indent=1, default=float)
     print("\n| benchmark | result |\n|---|---|")
-    if "overhead" in res:
-        for r in res["overhead"]:
-            print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | recorded {r['steps_per_s_recorded']:.0f} "
-                  f"steps/s, bare {r['steps_per_s_bare']:.0f} steps/s, overhead {100 * r['overhead']:+.1f} % |")
+    for r in res.get("recording", []):
+        print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | recorded {r['steps_per_s_recorded']:.0f} "
+              f"steps/s, bare {r['steps_per_s_bare']:.0f} steps/s, ratio {r['ratio']:.3f} (target >= 0.95) |")
+    for r in res.get("correction_bodies", []):
+        print(f"| exact dimer gas, pair {r['repeat']} | now ({r['bodies_now']} bodies) {r['steps_per_s_now']:.0f} "
+              f"steps/s, first version ({r['bodies_first_version']} bodies) {r['steps_per_s_first_version']:.0f} "
+              f"steps/s, ratio {r['ratio']:.3f} |")
+    if "driver" in res:
+        d = res["driver"]
+        print(f"| driver + Dask overhead | {d['overhead_per_run_s']:.2f} s per run over {d['n_runs']} runs "
+              f"(target <= 1 s) |")
     for r in res["msd"]:
         bf = f"{r['bruteforce_s']:.2f} s" if np.isfinite(r["bruteforce_s"]) else "-"
         print(f"| MSD, {r['frames']} frames x 864 | FFT {r['fft_s']:.2f} s, brute force {bf} |")
     print(f"| MSD cost exponent (T >= 1000) | FFT {ef:.2f}, brute force {eb:.2f} |")
-    for k, v in res["study_walls"].items():
-        print(f"| {k} sweep | {v} |")
 
 
 if __name__ == "__main__":

@@ -113,7 +113,9 @@ def _client(scheduler, workers):
 
     if scheduler:
         return Client(scheduler, timeout="30s"), None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=False, dashboard_address=None)
+    import logging
+    logging.getLogger("distributed.worker").setLevel(logging.ERROR)   # failed runs are reported by sweep()
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=False, dashboard_address=":0")
     return Client(cluster), cluster
 
 
