@@ -119,9 +119,22 @@ def _client(scheduler, workers):
     return Client(cluster), cluster
 
 
+def _plan(spec, rdir, log):
+    """Runs of the spec now, sequential groups extended by :func:`studies.design.plan`."""
+    if not any(g.get("target") for g in spec["groups"]):
+        return S.runs(spec), {}
+    from . import design
+
+    extra, status = design.plan(spec, rdir)
+    for gi, st in status.items():
+        log("[study] " + design.describe(gi, spec["groups"][gi], st))
+    return S.runs(spec, extra_seeds=extra), status
+
+
 def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow_dirty=False, max_runs=None,
           progress_every=30.0, log=print, scratch=None, timeout=None):
-    """Run every missing run of ``spec``; returns the manifest rows (dict by key)."""
+    """Run every missing run of ``spec`` (sequential groups: until their targets are met, their
+    ``max_seeds`` reached or the budget spent); returns the manifest rows (dict by key)."""
     from distributed import wait
 
     rdir = results_dir(spec)
@@ -136,75 +149,84 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
         raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
                          "runs must come from a committed revision (commit, use a clean `git worktree`, "
                          "or pass --allow-dirty for a throw-away study)")
-    runs = S.runs(spec)
-    rows = reconcile(spec, runs, rdir)
     max_att = spec["study"]["max_attempts"]
-    todo = [r for r in runs if rows[r["key"]]["status"] in ("todo", "failed")
-            and int(rows[r["key"]]["attempts"]) < max_att]
-    given_up = [r for r in runs if rows[r["key"]]["status"] == "failed" and int(rows[r["key"]]["attempts"]) >= max_att]
-    if max_runs is not None:
-        todo = todo[:max_runs]
-    n_done = sum(rows[r["key"]]["status"] in ("done", "flagged") for r in runs)
-    write_manifest(rdir, [rows[r["key"]] for r in runs])
-    log(f"[study] {spec['study']['name']} ({spec['path']}): {len(runs)} runs, {n_done} already complete, "
-        f"{len(todo)} to do, {len(given_up)} given up after {max_att} attempts; commit {commit[:10]}"
-        f"{' (dirty)' if dirty else ''}; results in {os.path.relpath(rdir, S.ROOT)}")
-    for r in given_up:
-        log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
-    if not todo:
-        return rows
-    workers = workers or os.cpu_count() or 1
-    client, cluster = _client(scheduler, workers)
-    settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
+    client = cluster = None
     t_start = time.time()
+    n_ok = n_flag = n_fail = n_sub = 0
+    attempted = set()
     try:
-        futs = {}
-        for i, run in enumerate(todo):
-            f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}",
-                              pure=False, priority=len(todo) - i, retries=0)
-            futs[f] = run
-        log(f"[study] {len(todo)} runs submitted to "
-            f"{scheduler or f'a LocalCluster of {workers} worker(s)'}")
-        pending = set(futs)
-        sim_total = sum(r["params"]["run"]["t_end"] for r in todo)
-        sim_done, last = 0.0, 0.0
-        n_ok = n_flag = n_fail = 0
-        while pending:
-            try:
-                done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
-            except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
-                done = set()
-            for f in done:
-                run = futs[f]
-                row = rows[run["key"]]
-                row["attempts"] = int(row["attempts"] or 0) + 1
-                sim_done += run["params"]["run"]["t_end"]
+        while True:
+            runs, _ = _plan(spec, rdir, log)
+            rows = reconcile(spec, runs, rdir)
+            todo = [r for r in runs if rows[r["key"]]["status"] in ("todo", "failed")
+                    and int(rows[r["key"]]["attempts"]) < max_att and r["key"] not in attempted]
+            given_up = [r for r in runs if rows[r["key"]]["status"] == "failed"
+                        and int(rows[r["key"]]["attempts"]) >= max_att]
+            if max_runs is not None:
+                todo = todo[:max(0, max_runs - n_sub)]
+            write_manifest(rdir, [rows[r["key"]] for r in runs])
+            if n_sub == 0:
+                n_done = sum(rows[r["key"]]["status"] in ("done", "flagged") for r in runs)
+                log(f"[study] {spec['study']['name']} ({spec['path']}): {len(runs)} runs, {n_done} already complete, "
+                    f"{len(todo)} to do, {len(given_up)} given up after {max_att} attempts; commit {commit[:10]}"
+                    f"{' (dirty)' if dirty else ''}; results in {os.path.relpath(rdir, S.ROOT)}")
+                for r in given_up:
+                    log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
+            if not todo:
+                break
+            if client is None:
+                workers = workers or os.cpu_count() or 1
+                client, cluster = _client(scheduler, workers)
+                settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
+            futs = {}
+            for i, run in enumerate(todo):
+                f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub + i}",
+                                  pure=False, priority=len(todo) - i, retries=0)
+                futs[f] = run
+                attempted.add(run["key"])
+            n_sub += len(todo)
+            log(f"[study] {len(todo)} runs submitted to {scheduler or f'a LocalCluster of {workers} worker(s)'}")
+            pending = set(futs)
+            sim_total = sum(r["params"]["run"]["t_end"] for r in todo)
+            sim_done, last = 0.0, time.time()
+            while pending:
                 try:
-                    summ = f.result()
-                    with open(runner.record_path(rdir, run)) as fh:
-                        _fill_done(row, json.load(fh), rdir)
-                    flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
-                    n_ok += summ["ok"]
-                    n_flag += not summ["ok"]
-                    log(f"[study] done {run['name']}: {flag}, energy drift {summ['energy_drift']:.2g}, "
-                        f"{summ['steps_per_s']:.0f} steps/s, {summ['wall_s']:.0f} s, YADE {summ['yade_version']} "
-                        f"({summ['rot_algorithm']})")
-                except Exception as e:  # noqa: BLE001 - any failure of a run is recorded, never lost
-                    n_fail += 1
-                    msg = f"{type(e).__name__}: {e}"
-                    row.update(status="failed", error=msg.replace("\n", " | ")[:2000],
-                               updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
-                    log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
-                write_manifest(rdir, [rows[r["key"]] for r in runs])
-            now = time.time()
-            if pending and now - last >= progress_every:
-                last = now
-                log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
-                                   len(todo) - len(pending), len(todo)))
-        log(f"[study] finished {len(todo)} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, {n_flag} flagged, "
-            f"{n_fail} failed")
+                    done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
+                except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
+                    done = set()
+                for f in done:
+                    run = futs[f]
+                    row = rows[run["key"]]
+                    row["attempts"] = int(row["attempts"] or 0) + 1
+                    sim_done += run["params"]["run"]["t_end"]
+                    try:
+                        summ = f.result()
+                        with open(runner.record_path(rdir, run)) as fh:
+                            _fill_done(row, json.load(fh), rdir)
+                        flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
+                        n_ok += summ["ok"]
+                        n_flag += not summ["ok"]
+                        log(f"[study] done {run['name']}: {flag}, energy drift {summ['energy_drift']:.2g}, "
+                            f"{summ['steps_per_s']:.0f} steps/s, {summ['wall_s']:.0f} s, YADE {summ['yade_version']} "
+                            f"({summ['rot_algorithm']})")
+                    except Exception as e:  # noqa: BLE001 - any failure of a run is recorded, never lost
+                        n_fail += 1
+                        msg = f"{type(e).__name__}: {e}"
+                        row.update(status="failed", error=msg.replace("\n", " | ")[:2000],
+                                   updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
+                        log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
+                    write_manifest(rdir, [rows[r["key"]] for r in runs])
+                now = time.time()
+                if pending and now - last >= progress_every:
+                    last = now
+                    log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
+                                       len(todo) - len(pending), len(todo)))
+        if n_sub:
+            log(f"[study] finished {n_sub} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, {n_flag} flagged, "
+                f"{n_fail} failed")
     finally:
-        client.close()
+        if client is not None:
+            client.close()
         if cluster is not None:
             cluster.close()
         fcntl.flock(lock, fcntl.LOCK_UN)

@@ -1,0 +1,173 @@
+"""From run records to per-run D, and the sequential design of a study (issue 12).
+
+Pure functions of run records (the JSON files of :mod:`studies.runner`); no Dask, no YADE,
+no driver.  The driver (:mod:`studies.engine`) asks :func:`plan` which seeds a sequential
+group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for every run.
+
+* **The analysis window.**  ``analysis.t_eq`` in seconds, or ``"auto"``: the equilibration cut
+  detected from the record's rotational share of kinetic energy
+  (:func:`studies.estimators.detect_equilibration`, equipartition 2/5 for linear clumps, 1/2
+  for others), rounded up to the next stored window start (``analysis.cuts``).
+* **D of one run**: Green-Kubo on the record's velocity autocorrelation
+  (:func:`studies.estimators.diffusion_green_kubo`, e-folding truncation plus a fitted
+  exponential tail; validated on Ornstein-Uhlenbeck walkers in benchmarks/bench_estimator.py),
+  with a jackknife standard error over the record's particle groups.  Published intervals use
+  the seeds as the independent units: a Student-t interval over per-seed values or per-seed
+  paired differences.
+* **Sequential design.**  A group with ``target = {case, halfwidth, batch}`` and ``max_seeds``
+  starts with its ``seeds``; whenever all its runs are finished, the 95 % half-width of the
+  paired relative difference D_case / D_exact - 1 over seeds is compared with ``halfwidth``
+  (:func:`studies.estimators.sequential_status`: a rule on the spread, never on the mean), and
+  ``batch`` more seeds are added until the target is met, ``max_seeds`` is reached, or the
+  spec's ``study.budget_cpu_hours`` is spent.  The added seeds follow from the records alone, so
+  a stopped study resumes the same design on any machine.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+
+from . import estimators as est
+from . import runner
+from . import spec as S
+
+ESTIMATOR = "green_kubo"
+
+
+def equipartition_share(rec):
+    """Equipartition value of E_rot / (E_trans + E_rot): 2/5 linear clumps, 1/2 others, 0 spheres."""
+    dof = rec["rot_dof"]
+    return dof / (3.0 + dof)
+
+
+def analysis_cut(rec, t_eq):
+    """Start (s) of the record's analysis window for ``t_eq`` (seconds or "auto"); returns
+    (t_cut, detected) where ``detected`` is the detected cut (s) or None."""
+    cuts = sorted(w["t_cut"] for w in rec["windows"])
+    if t_eq != "auto":
+        return float(t_eq), None
+    if rec["rot_dof"] == 0:                 # spheres: no rotation, equilibrium from the start
+        return cuts[0], 0.0
+    e = rec["energy"]
+    tr, ro = np.asarray(e["e_trans"]), np.asarray(e["e_rot"])
+    det = est.detect_equilibration(np.asarray(e["t"]), ro / (tr + ro), equipartition_share(rec))
+    t_det = det["t_cut"]
+    if not np.isfinite(t_det):
+        raise ValueError(f"run {rec['name']}: no equilibration cut (rotational share never settles at "
+                         f"{equipartition_share(rec):.2f})")
+    later = [c for c in cuts if c >= t_det - 1e-9]
+    if not later:
+        raise ValueError(f"run {rec['name']}: detected cut {t_det:.0f} s is after every stored window {cuts}")
+    return later[0], float(t_det)
+
+
+def window_of(rec, t_cut):
+    for w in rec["windows"]:
+        if abs(w["t_cut"] - t_cut) < 1e-9:
+            return w
+    raise KeyError(f"run {rec['name']} has no analysis window from t = {t_cut} s "
+                   f"(stored: {[w['t_cut'] for w in rec['windows']]}): add it to analysis.cuts and rerun")
+
+
+def run_d(rec, t_eq):
+    """Green-Kubo D (m^2/s) of one run record, its jackknife SE over particle groups, and the cut."""
+    t_cut, detected = analysis_cut(rec, t_eq)
+    w = window_of(rec, t_cut)
+    lag = np.asarray(w["vacf_lag_s"])
+    d = est.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
+    se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"]))
+    return {"D": float(d), "D_stderr": float(se), "t_cut": t_cut, "t_cut_detected": detected}
+
+
+def load_records(spec, rdir):
+    """Every finished record of a spec's runs, by key (runs without a record are left out)."""
+    out = {}
+    for run in S.runs(spec):
+        path = runner.record_path(rdir, run)
+        if runner.is_complete(path, run["key"]):
+            with open(path) as f:
+                out[run["key"]] = json.load(f)
+    return out
+
+
+def cpu_hours(recs):
+    """CPU-hours of the runs behind the records (each run is one single-threaded YADE process)."""
+    return float(sum(r["wall_s"] for r in recs.values())) / 3600.0
+
+
+def _sequential_runs(spec, gi, seeds):
+    """The runs (key, case, seed) of group gi for the given seeds, shared runs included."""
+    g = spec["groups"][gi]
+    out = []
+    for seed in seeds:
+        for case in g["cases"]:
+            out.append({"key": S.run_key(S.resolve_run(spec, g, case, seed)), "case": case, "seed": seed})
+    return out
+
+
+def paired_relative(recs_by_key, runs, case, t_eq):
+    """Per-seed D_case / D_exact - 1 for the seeds where both runs are finished and passed their
+    checks: list of (seed, value)."""
+    by = {}
+    for r in runs:
+        rec = recs_by_key.get(r["key"])
+        if rec is not None and rec["checks"]["ok"]:
+            by.setdefault(r["seed"], {})[r["case"]] = run_d(rec, t_eq)["D"]
+    return [(s, v[case] / v["exact"] - 1.0) for s, v in sorted(by.items()) if case in v and "exact" in v]
+
+
+def plan(spec, rdir, recs=None):
+    """Extra seeds per sequential group, and a status line per group.
+
+    Returns (extra_seeds {group index: [seeds]}, status {group index: dict}).  A group's extra
+    seeds are the next integers after its largest listed seed, added ``batch`` at a time while
+    its target is not met, it has fewer than ``max_seeds`` seeds, and the budget allows.
+    """
+    recs = load_records(spec, rdir) if recs is None else recs
+    budget = spec["study"].get("budget_cpu_hours")
+    spent = cpu_hours(recs)
+    t_eq = spec["analysis"]["t_eq"]
+    extra, status = {}, {}
+    for gi, g in enumerate(spec["groups"]):
+        tgt = g.get("target")
+        if not tgt:
+            continue
+        seeds = list(g["seeds"])
+        nxt = max(seeds) + 1
+        while True:
+            runs = _sequential_runs(spec, gi, seeds)
+            finished = all(r["key"] in recs for r in runs)
+            pairs = paired_relative(recs, runs, tgt["case"], t_eq)
+            st = est.sequential_status([v for _, v in pairs], tgt["halfwidth"], max_n=g["max_seeds"])
+            st.update(case=tgt["case"], target=tgt["halfwidth"], seeds=len(seeds), finished=finished,
+                      cpu_hours=spent, budget_cpu_hours=budget)
+            if not finished:
+                st["state"] = "running"
+                break
+            if st["met"]:
+                st["state"] = "target met"
+                break
+            if len(seeds) >= g["max_seeds"]:
+                st["state"] = "max_seeds reached"
+                break
+            if budget is not None and spent >= budget:
+                st["state"] = "budget spent"
+                break
+            k = min(tgt["batch"], g["max_seeds"] - len(seeds))
+            seeds += list(range(nxt, nxt + k))
+            nxt += k
+        extra[gi] = [s for s in seeds if s not in g["seeds"]]
+        status[gi] = st
+    return extra, status
+
+
+def describe(gi, g, st):
+    hw = st["halfwidth"]
+    hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
+    proj = "" if st.get("n_needed") is None else f", projected {st['n_needed']} pairs for the target"
+    return (f"group {gi} ({g['shape']}: {st['case']} vs exact): {st['state']}; {st['n']} pairs, 95 % half-width "
+            f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
+            + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

@@ -1,0 +1,114 @@
+"""``results/effects.csv``: the correction's effect on D for every shape, protocol and stiffness.
+
+Reads the manifests and run records of the given specs (no live simulation) and writes one row
+per shape x overlap x protocol x Young's modulus x case against ``exact``:
+
+    shape, overlap, protocol, youngs_modulus, case, n_pairs, relative, relative_ci_low,
+    relative_ci_high, mass_error, k2_error, yade_version, rot_algorithm
+
+``relative`` is the mean over seeds of D_case / D_exact - 1, paired by seed (the two runs of a
+pair share their initial state and every parameter but the case), with a 95 % Student-t
+interval over the seeds (the independent units).  D of a run: :func:`studies.design.run_d`.
+``mass_error`` = m_sum / m_exact - 1 and ``k2_error`` the relative error of the summed clump's
+squared radius of gyration tr(I) / 2m (:mod:`studies.shapes`).
+"""
+from __future__ import annotations
+
+import csv
+import os
+
+import numpy as np
+
+from . import design, engine
+from . import shapes as shp
+from . import spec as S
+
+COLUMNS = ("shape", "overlap", "protocol", "youngs_modulus", "case", "n_pairs", "relative", "relative_ci_low",
+           "relative_ci_high", "mass_error", "k2_error", "yade_version", "rot_algorithm")
+
+
+def _pair_key(params):
+    """Everything of a run's parameters but the case (and the sphere options): runs with the same
+    pair key and seed are a paired comparison."""
+    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol")}
+    return S.run_key(p)
+
+
+def collect(specs):
+    """{(pair_key, seed): {case: (D, record)}} and the group facts of every pair key."""
+    by, facts = {}, {}
+    for sp in specs:
+        rdir = engine.results_dir(sp)
+        if not os.path.isdir(rdir):
+            continue
+        for key, rec in design.load_records(sp, rdir).items():
+            if not rec["checks"]["ok"]:
+                continue
+            p = rec["params"]
+            d = design.run_d(rec, sp["analysis"]["t_eq"])["D"]
+            by.setdefault(_pair_key(p), {}).setdefault(p["seed"], {})[(p["case"], p["protocol"])] = (d, rec)
+            facts[_pair_key(p)] = p
+    return by, facts
+
+
+def effect_rows(specs):
+    from .estimators import t_interval
+
+    by, facts = collect(specs)
+    rows = []
+    for pk, seeds in by.items():
+        p = facts[pk]
+        shape = p["shape"]["definition"]
+        combos = sorted({c for s in seeds.values() for c in s if c[0] != "exact"})
+        for case, protocol in combos:
+            vals, yv, ra = [], set(), set()
+            for seed, cases in sorted(seeds.items()):
+                ex = cases.get(("exact", "paired"))
+                cc = cases.get((case, protocol))
+                if ex is None or cc is None:
+                    continue
+                vals.append(cc[0] / ex[0] - 1.0)
+                yv |= {ex[1]["yade_version"], cc[1]["yade_version"]}
+                ra |= {ex[1]["rot_algorithm"], cc[1]["rot_algorithm"]}
+            if not vals:
+                continue
+            m, lo, hi, se, n = t_interval(vals)
+            rho = p["material"]["density"]
+            name = shape["kind"] if shape["kind"] != "file" else os.path.basename(shape["path"])
+            rows.append({"shape": name, "overlap": shape.get("overlap", ""), "protocol": protocol,
+                         "youngs_modulus": p["material"]["youngs_modulus"], "case": case, "n_pairs": n,
+                         "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
+                         "mass_error": shp.mass_error(shape, rho), "k2_error": shp.k2_error(shape, rho),
+                         "yade_version": ";".join(sorted(yv)), "rot_algorithm": ";".join(sorted(ra))})
+    rows.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["protocol"], r["youngs_modulus"], r["case"]))
+    return rows
+
+
+def write(specs, path):
+    rows = effect_rows(specs)
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else v) for k, v in r.items()})
+    os.replace(tmp, path)
+    return rows
+
+
+def committed_specs():
+    """Every spec under studies/specs/ except the test scale."""
+    out = []
+    for f in sorted(os.listdir(S.SPEC_DIR)):
+        if f.endswith(".toml") and f != "test.toml":
+            out.append(S.load(os.path.join(S.SPEC_DIR, f)))
+    return out
+
+
+if __name__ == "__main__":       # python -m studies.effects: results/effects.csv from every committed spec
+    rows = write(committed_specs(), os.path.join(S.ROOT, "results", "effects.csv"))
+    print(f"[effects] {len(rows)} rows in results/effects.csv")
+    for r in rows:
+        print(f"  {r['shape']} {r['overlap']} {r['protocol']} E={r['youngs_modulus']:g} {r['case']}: "
+              f"{100 * r['relative']:+.2f} % [{100 * r['relative_ci_low']:+.2f}, {100 * r['relative_ci_high']:+.2f}] "
+              f"(n={r['n_pairs']})")
