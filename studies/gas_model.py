@@ -224,14 +224,3 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
         wb *= np.sqrt(e_rot / (0.5 * np.einsum("ni,ij,nj->", wb, I_scale, wb)))
         angvel = np.einsum("nij,nj->ni", ori, wb)
     return pos, ori, vel, angvel
-
-
-def rotational_energy(angvel, ori, moments):
-    """Rotational kinetic energy (J) per frame: angvel (..., n, 3) world frame, ori (..., n, 3, 3)
-    body-to-world rotations (None for isotropic bodies), moments (3,) body-frame principal
-    moments (kg m^2).  YADE's ``O.energy['kinRot']`` is wrong for clumps on 2023.02a."""
-    I = np.asarray(moments, float)
-    if ori is None:
-        return 0.5 * I[0] * np.sum(angvel ** 2, axis=(-1, -2))
-    wb = np.einsum("...nji,...nj->...ni", ori, angvel)      # R^T w
-    return 0.5 * np.sum(I * wb ** 2, axis=(-1, -2))

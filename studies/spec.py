@@ -243,11 +243,6 @@ def _group_tables(spec, g):
     return mat, gas, run
 
 
-def group_seeds(g):
-    """Seeds a group runs now: all of ``seeds`` (a sequential group starts from them)."""
-    return list(g["seeds"])
-
-
 def resolve_run(spec, g, case, seed):
     """The fully resolved parameters of one run (a JSON-able dict); its key is :func:`run_key`."""
     import clumpprops
@@ -279,10 +274,6 @@ def run_key(params):
     return hashlib.sha256(json.dumps(params, sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:16]
 
 
-def run_label(spec, g, case, protocol, seed):
-    return f"{g['shape']}-{case}-{protocol}-s{seed}"
-
-
 def runs(spec, extra_seeds=None):
     """Every run of a spec in priority order (group by group, seed by seed), without duplicates.
 
@@ -291,7 +282,7 @@ def runs(spec, extra_seeds=None):
     """
     out, seen = [], set()
     for gi, g in enumerate(spec["groups"]):
-        seeds = group_seeds(g) + list((extra_seeds or {}).get(gi, []))
+        seeds = list(g["seeds"]) + list((extra_seeds or {}).get(gi, []))
         for seed in seeds:
             for case in g["cases"]:
                 params = resolve_run(spec, g, case, seed)
