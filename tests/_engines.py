@@ -35,21 +35,21 @@ def run(exe, infile: Path, cwd: Path, timeout=120):
 
 
 def thermo_rows(text: str, first: str = "Step"):
-    """Numeric thermo rows after each header line starting with ``first``: list of (header, rows)."""
+    """Numeric thermo rows after each header line starting with ``first`` (up to ``Loop time``):
+    list of (header, rows); other lines in between (INFO messages) are skipped."""
     out, head = [], None
     for line in text.splitlines():
         w = line.split()
         if w and w[0] == first:
             head = w
             out.append((head, []))
-            continue
-        if head and len(w) == len(head):
+        elif line.startswith("Loop time"):
+            head = None
+        elif head and len(w) == len(head):
             try:
                 out[-1][1].append([float(x) for x in w])
             except ValueError:
-                head = None
-        elif head:
-            head = None
+                pass
     return out
 
 
