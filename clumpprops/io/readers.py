@@ -93,9 +93,10 @@ def _sphere(words, source, lineno, names=_NAMES):
     return row
 
 
-def _make(rows, lines, name, source, scale) -> Clump:
+def _make(rows, lines, name, source, scale, nlines=None) -> Clump:
     if not rows:
-        raise ClumpFileError("no spheres found (empty clump)", source)
+        where = max(1, nlines) if nlines is not None else None
+        raise ClumpFileError("end of file and no spheres found (empty clump)", source, where)
     a = np.array(rows, dtype=np.float64) * scale
     return Clump(centers=a[:, :3], radii=a[:, 3], name=name, source=source, lines=tuple(lines))
 
@@ -106,7 +107,8 @@ def read_csv(path, scale: float = 1.0) -> List[Clump]:
     src = str(path)
     rows, lines = [], []
     first = True
-    for lineno, line in enumerate(_read_lines(path), 1):
+    text = _read_lines(path)
+    for lineno, line in enumerate(text, 1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
@@ -121,7 +123,7 @@ def read_csv(path, scale: float = 1.0) -> List[Clump]:
             raise ClumpFileError(f"expected 4 comma-separated columns x,y,z,r, got {len(words)}: {s!r}", src, lineno)
         rows.append(_sphere(words, src, lineno))
         lines.append(lineno)
-    return [_make(rows, lines, _stem(path), src, scale)]
+    return [_make(rows, lines, _stem(path), src, scale, len(text))]
 
 
 def _is_name(w: str) -> bool:
@@ -136,7 +138,8 @@ def read_liggghts(path, scale: float = 1.0) -> List[Clump]:
     """One clump from a LIGGGHTS ``particletemplate/multisphere`` sphere file ``x y z r [type]``."""
     src = str(path)
     rows, lines = [], []
-    for lineno, line in enumerate(_read_lines(path), 1):
+    text = _read_lines(path)
+    for lineno, line in enumerate(text, 1):
         words = line.split("#", 1)[0].split()
         if not words:
             continue
@@ -149,7 +152,7 @@ def read_liggghts(path, scale: float = 1.0) -> List[Clump]:
                 raise ClumpFileError(f"5th column (atom type) must be an integer, got {words[4]!r}", src, lineno) from None
         rows.append(_sphere(words, src, lineno))
         lines.append(lineno)
-    return [_make(rows, lines, _stem(path), src, scale)]
+    return [_make(rows, lines, _stem(path), src, scale, len(text))]
 
 
 def read_mclump(path, scale: float = 1.0) -> List[Clump]:
@@ -163,7 +166,8 @@ def read_mclump(path, scale: float = 1.0) -> List[Clump]:
         p = found[0]
     src = str(p)
     rows, lines = [], []
-    for lineno, line in enumerate(_read_lines(p), 1):
+    text = _read_lines(p)
+    for lineno, line in enumerate(text, 1):
         s = line.strip()
         if not s:
             continue
@@ -172,7 +176,7 @@ def read_mclump(path, scale: float = 1.0) -> List[Clump]:
             raise ClumpFileError(f"expected 4 comma-separated columns x,y,z,r, got {len(words)}: {s!r}", src, lineno)
         rows.append(_sphere(words, src, lineno))
         lines.append(lineno)
-    return [_make(rows, lines, _stem(path), src, scale)]
+    return [_make(rows, lines, _stem(path), src, scale, len(text))]
 
 
 def read_yade(path, scale: float = 1.0) -> List[Clump]:
@@ -183,7 +187,11 @@ def read_yade(path, scale: float = 1.0) -> List[Clump]:
     try:
         tcs = read_text_clumps(path, scale=scale)
     except TextClumpsError as exc:
-        raise ClumpFileError(exc.reason, exc.source, exc.lineno) from None
+        lineno = exc.lineno
+        if lineno is None and "no spheres" in exc.reason:  # point at the end of the file
+            lineno = max(1, len(_read_lines(path)))
+            raise ClumpFileError("end of file and no spheres found (empty clump)", exc.source, lineno) from None
+        raise ClumpFileError(exc.reason, exc.source, lineno) from None
     except OSError as exc:
         raise ClumpFileError(f"cannot read: {exc.strerror or exc}", str(path)) from None
     stem = _stem(path)
@@ -232,9 +240,9 @@ def read_lammps(path, scale: float = 1.0) -> List[Clump]:
             diams[_atom_id(words[0], src, lineno)] = words[1]
             diam_line[_atom_id(words[0], src, lineno)] = lineno
     if not coords:
-        raise ClumpFileError("no spheres found (no Coords section; empty clump)", src)
+        raise ClumpFileError("end of file and no spheres found (no Coords section; empty clump)", src, max(1, len(text)))
     if not diams:
-        raise ClumpFileError("no Diameters section: the sphere radii are unknown", src)
+        raise ClumpFileError("end of file and no Diameters section: the sphere radii are unknown", src, max(1, len(text)))
     if natoms is not None and natoms != len(coords):
         raise ClumpFileError(f"header says {natoms} atoms, Coords has {len(coords)}", src)
     rows, lines = [], []
