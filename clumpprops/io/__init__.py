@@ -32,15 +32,22 @@ def _module(to: str):
 
 def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.0, method: str = "exact",
            source: str = "", scale: float = 1.0, stem: Optional[str] = None, mp=None,
-           warn: Optional[Callable[[str], None]] = None) -> List:
+           warn: Optional[Callable[[str], None]] = None, templates: bool = True) -> List:
     """Write the files engine ``to`` reads for ``clumps`` into ``out_dir``; returns the paths.
 
     ``mp``: precomputed ``mass_properties`` of the clumps (batch), else computed here with
     ``method`` and ``density``.  ``warn`` receives warnings (DEME float32 precision).
+    ``templates=False`` skips the per-clump template files of LAMMPS (``.mol``) and DEME
+    (``.csv``; the JSON still holds every clump's spheres): for large batches, where one
+    file per clump costs more than everything else.
     """
     mod = _module(to)
     clumps = list(clumps)
     if mp is None:
         mp = compute(clumps, density, method)
     kw = {"warn": warn} if to == "deme" else {}
+    if not templates:
+        if to not in ("lammps", "deme"):
+            raise ValueError(f"templates=False applies to lammps and deme; {to} needs its per-clump files")
+        kw["templates"] = False
     return mod.write(clumps, mp, out_dir, density, method, source=source, scale=scale, stem=stem, **kw)

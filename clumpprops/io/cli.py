@@ -2,6 +2,7 @@
 
     clumpprops export FILE --to {liggghts,lammps,deme,mclump,yade} [--out DIR]
                       [--density RHO] [--method M] [--scale S] [--from FMT] [--name STEM]
+                      [--no-templates]
 
 Prints one line per file written and a short summary per clump on stdout; warnings (DEME
 float32 precision) on stderr.  Errors are one line ``clumpprops: error: FILE:LINE: reason``,
@@ -47,18 +48,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="multiply coordinates and radii by S, e.g. 0.001 for a file in mm (outputs are in m)")
     p.add_argument("--from", dest="fmt", choices=FORMATS, help="input format (default: from the file name)")
     p.add_argument("--name", metavar="STEM", help="stem of the output files that hold all clumps")
+    p.add_argument("--no-templates", action="store_true",
+                   help="lammps, deme: skip the per-clump .mol / .csv files (large batches: the .rigid/.data or the "
+                   "JSON hold every clump)")
     p.add_argument("--version", action="version", version=f"clumpprops {__version__}")
     return p
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.no_templates and args.to not in ("lammps", "deme"):
+        parser.error(f"--no-templates applies to --to lammps and deme; {args.to} needs its per-clump files")
     warnings = []
     try:
         clumps = read(args.file, args.fmt, scale=args.scale)
         mp = compute(clumps, args.density, args.method)
         paths = export(clumps, args.to, args.out, args.density, args.method, source=args.file, scale=args.scale,
-                       stem=args.name, mp=mp, warn=warnings.append)
+                       stem=args.name, mp=mp, warn=warnings.append,
+                       templates=not args.no_templates)
     except ClumpGeometryError as exc:
         return _fail(f"{args.file}: {exc}")
     except ClumpFileError as exc:

@@ -28,7 +28,7 @@ from typing import List, Sequence
 
 import numpy as np
 
-from ._common import Clump, fnum, header_lines
+from ._common import Clump, Props, fmt_rows, fnum, header_lines
 
 ENGINE = "LAMMPS fix rigid, fix rigid/small (infile, molecule file)"
 
@@ -46,15 +46,17 @@ def infile_line(body_id: int, mass: float, com, inertia, v=(0.0, 0.0, 0.0), angm
 
 
 def infile_text(clumps, mp, header, angmom=None) -> str:
-    batch = np.ndim(mp.mass) == 1
+    P = Props(mp)
     out = [f"# {h}" for h in header]
     out.append("# ID masstotal xcm ycm zcm ixx iyy izz ixy ixz iyz vxcm vycm vzcm lx ly lz ixcm iycm izcm")
     out.append("# inertia about the centre of mass in box axes, tensor components (off-diagonals -sum m x y)")
     out.append(str(len(clumps)))
-    for k in range(len(clumps)):
-        m = mp[k] if batch else mp
-        L = (0.0, 0.0, 0.0) if angmom is None else angmom[k]
-        out.append(infile_line(k + 1, m.mass, m.center_of_mass, m.inertia, angmom=L))
+    M = len(clumps)
+    I = P.inertia
+    L = np.zeros((M, 3)) if angmom is None else np.asarray(angmom, dtype=float).reshape(M, 3)
+    cols = np.column_stack([P.mass, P.com, I[:, 0, 0], I[:, 1, 1], I[:, 2, 2], I[:, 0, 1], I[:, 0, 2], I[:, 1, 2],
+                            np.zeros((M, 3)), L])
+    out.extend(f"{k + 1} {row} 0 0 0" for k, row in enumerate(fmt_rows(cols)))
     return "\n".join(out) + "\n"
 
 
@@ -70,12 +72,10 @@ def data_text(clumps, density: float, header, margin: float = None) -> str:
     out = ["LAMMPS data file written by clumpprops"] + [f"# {h}" for h in header] + ["", f"{n} atoms", "1 atom types",
            f"{fnum(lo[0])} {fnum(hi[0])} xlo xhi", f"{fnum(lo[1])} {fnum(hi[1])} ylo yhi",
            f"{fnum(lo[2])} {fnum(hi[2])} zlo zhi", "", "Atoms # hybrid sphere molecular", ""]
-    aid = 0
     rho = fnum(density)
-    for k, c in enumerate(clumps):
-        for p, r in zip(c.centers, c.radii):
-            aid += 1
-            out.append(f"{aid} 1 {fnum(p[0])} {fnum(p[1])} {fnum(p[2])} {fnum(2.0 * r)} {rho} {k + 1}")
+    mol = np.repeat(np.arange(1, len(clumps) + 1), [c.n_spheres for c in clumps]).tolist()
+    rows = fmt_rows(np.column_stack([allc, 2.0 * allr]))
+    out.extend(f"{i + 1} 1 {row} {rho} {m}" for i, (row, m) in enumerate(zip(rows, mol)))
     return "\n".join(out) + "\n"
 
 
@@ -93,12 +93,12 @@ def molecule_inertia_words(I) -> List[str]:
     return [fnum(I[0, 0]), fnum(I[1, 1]), fnum(I[2, 2]), fnum(I[1, 2]), fnum(I[0, 2]), fnum(I[0, 1])]
 
 
-def molecule_text(clump: Clump, m, density: float, header) -> str:
-    rel = clump.centers - m.center_of_mass
-    I = np.asarray(m.inertia)
+def molecule_text(clump: Clump, mass, com, inertia, density: float, header) -> str:
+    rel = clump.centers - com
+    I = np.asarray(inertia)
     n = clump.n_spheres
     # the first line is the title (a 256-character buffer in LAMMPS: a longer line spills into the header)
-    out = [f"LAMMPS molecule file written by clumpprops: {clump.name}"[:200]] + [f"# {h}" for h in header] + ["", f"{n} atoms", f"{fnum(m.mass)} mass", "0.0 0.0 0.0 com",
+    out = [f"LAMMPS molecule file written by clumpprops: {clump.name}"[:200]] + [f"# {h}" for h in header] + ["", f"{n} atoms", f"{fnum(mass)} mass", "0.0 0.0 0.0 com",
            "# inertia: Ixx Iyy Izz Iyz Ixz Ixy, the order molecule.cpp stores (see molecule_inertia_words)",
            " ".join(molecule_inertia_words(I)) + " inertia",
            "", "Coords", ""]
@@ -110,10 +110,11 @@ def molecule_text(clump: Clump, m, density: float, header) -> str:
 
 
 def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, source: str = "", scale: float = 1.0,
-          stem: str = None) -> List[Path]:
+          stem: str = None, templates: bool = True) -> List[Path]:
+    """``STEM.rigid`` and ``STEM.data`` for all clumps, and (``templates``) one ``NAME.mol`` per clump."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    batch = np.ndim(mp.mass) == 1
+    P = Props(mp)
     hdr = header_lines(ENGINE, density, method, source, scale)
     stem = stem or (clumps[0].name if len(clumps) == 1 else "clumps")
     written = []
@@ -123,9 +124,10 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     p = out_dir / f"{stem}.data"
     p.write_text(data_text(clumps, density, hdr))
     written.append(p)
-    for k, c in enumerate(clumps):
-        m = mp[k] if batch else mp
-        p = out_dir / f"{c.name}.mol"
-        p.write_text(molecule_text(c, m, density, hdr + [f"clump {c.name}, centred on its centre of mass"]))
-        written.append(p)
+    if templates:
+        for k, c in enumerate(clumps):
+            p = out_dir / f"{c.name}.mol"
+            p.write_text(molecule_text(c, P.mass[k], P.com[k], P.inertia[k], density,
+                                       hdr + [f"clump {c.name}, centred on its centre of mass"]))
+            written.append(p)
     return written

@@ -27,7 +27,7 @@ from typing import List, Sequence
 
 import numpy as np
 
-from ._common import Clump, fnum, header_lines
+from ._common import Clump, Props, fmt_rows, fnum, header_lines
 
 ENGINE = "LIGGGHTS 3.x fix particletemplate/multisphere"
 NTRY = 1000000
@@ -64,7 +64,7 @@ def sphere_file_text(clump: Clump, com, header: Sequence[str]) -> str:
     rel = clump.centers - np.asarray(com)
     out = [f"# {h}" for h in header]
     out.append("# x y z r (m), centred on the clump's centre of mass (LIGGGHTS use_density needs this)")
-    out.extend(f"{fnum(p[0])} {fnum(p[1])} {fnum(p[2])} {fnum(r)}" for p, r in zip(rel, clump.radii))
+    out.extend(fmt_rows(np.column_stack([rel, clump.radii])))
     return "\n".join(out) + "\n"
 
 
@@ -82,27 +82,25 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     """Write the sphere files and ``STEM_liggghts.in``; returns the paths written."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    batch = np.ndim(mp.mass) == 1
+    P = Props(mp)
     hdr = header_lines(ENGINE, density, method, source, scale)
+    hdr_text = "".join(f"# {h}\n" for h in hdr)
     written, fixes = [], []
     sd = seeds(len(clumps) + 1)
     for k, c in enumerate(clumps):
-        m = mp[k] if batch else mp
         fname = f"{c.name}.multisphere"
-        extra = [f"clump {c.name}: {c.n_spheres} spheres, mass {fnum(m.mass)} kg, centre of mass in the source "
-                 f"file's frame {' '.join(fnum(x) for x in m.center_of_mass)} m"]
-        (out_dir / fname).write_text(sphere_file_text(c, m.center_of_mass, hdr + extra))
+        extra = [f"clump {c.name}: {c.n_spheres} spheres, mass {fnum(P.mass[k])} kg, centre of mass in the source "
+                 f"file's frame {' '.join(fnum(x) for x in P.com[k])} m"]
+        (out_dir / fname).write_text(sphere_file_text(c, P.com[k], hdr + extra))
         written.append(out_dir / fname)
-        fixes.append(f"# {c.name}: mass {fnum(m.mass)} kg, principal moments "
-                     f"{' '.join(fnum(x) for x in m.principal_moments)} kg m^2")
-        fixes.append(fix_line(k + 1, sd[k], c, fname, m.mass, m.inertia, density))
+        fixes.append(f"# {c.name}: mass {fnum(P.mass[k])} kg, principal moments "
+                     f"{' '.join(fnum(x) for x in P.moments[k])} kg m^2")
+        fixes.append(fix_line(k + 1, sd[k], c, fname, P.mass[k], P.inertia[k], density))
     stem = stem or (clumps[0].name if len(clumps) == 1 else "clumps")
     weights = " ".join(f"pts{k + 1} {fnum(1.0 / len(clumps))}" for k in range(len(clumps)))
-    text = [f"# {h}" for h in hdr]
-    text += [
-        "# include this file after the material fixes; the sphere files are read relative to the working directory.",
-        "# inertia_tensor: Ixx Ixy Ixz Iyy Iyz Izz about the centre of mass (tensor components, off-diagonals -sum m x y)",
-    ]
+    text = [hdr_text.rstrip("\n"),
+            "# include this file after the material fixes; the sphere files are read relative to the working directory.",
+            "# inertia_tensor: Ixx Ixy Ixz Iyy Iyz Izz about the centre of mass (tensor components, off-diagonals -sum m x y)"]
     text += fixes
     text.append(f"fix pdd1 all particledistribution/discrete {sd[-1]} {len(clumps)} {weights}")
     path = out_dir / f"{stem}_liggghts.in"

@@ -20,7 +20,7 @@ from typing import List, Sequence
 
 import numpy as np
 
-from ._common import Clump, fnum, header_lines, principal_frame
+from ._common import Clump, Props, fmt_rows, fnum, header_lines, principal_frame
 
 ENGINE = "MercuryDPM (MClump folder layout)"
 
@@ -28,28 +28,27 @@ ENGINE = "MercuryDPM (MClump folder layout)"
 def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, source: str = "", scale: float = 1.0,
           stem: str = None) -> List[Path]:
     out_dir = Path(out_dir)
-    batch = np.ndim(mp.mass) == 1
+    P = Props(mp)
     written = []
     for k, c in enumerate(clumps):
-        m = mp[k] if batch else mp
         base = out_dir / c.name
         (base / "Clump").mkdir(parents=True, exist_ok=True)
         (base / "Inertia").mkdir(parents=True, exist_ok=True)
-        rel = principal_frame(c, m)
+        rel = principal_frame(c.centers, P.com[k], P.axes[k])
         files = {
-            base / "Clump" / "Clump.txt": [f"{fnum(p[0])},{fnum(p[1])},{fnum(p[2])},{fnum(r)}" for p, r in zip(rel, c.radii)],
-            base / "Inertia" / "Mass.txt": [fnum(m.mass)],
-            base / "Inertia" / "TOI.txt": [",".join(fnum(m.principal_moments[i] if i == j else 0.0) for j in range(3))
+            base / "Clump" / "Clump.txt": fmt_rows(np.column_stack([rel, c.radii]), ","),
+            base / "Inertia" / "Mass.txt": [fnum(P.mass[k])],
+            base / "Inertia" / "TOI.txt": [",".join(fnum(P.moments[k][i] if i == j else 0.0) for j in range(3))
                                            for i in range(3)],
             base / "Inertia" / "PD.txt": ["1.0,0.0,0.0", "0.0,1.0,0.0", "0.0,0.0,1.0"],
             base / "clumpprops.txt": header_lines(ENGINE, density, method, source, scale) + [
                 "Clump.txt: x,y,z,r in the principal frame (centre of mass at 0); TOI diagonal, PD identity",
                 "MercuryDPM reads these files with std::stof (float32, ~7 significant digits)",
-                f"mass {fnum(m.mass)} kg",
-                "principal moments " + " ".join(fnum(x) for x in m.principal_moments) + " kg m^2",
-                "com (source frame) " + " ".join(fnum(x) for x in m.center_of_mass) + " m",
+                f"mass {fnum(P.mass[k])} kg",
+                "principal moments " + " ".join(fnum(x) for x in P.moments[k]) + " kg m^2",
+                "com (source frame) " + " ".join(fnum(x) for x in P.com[k]) + " m",
                 "principal_axes (columns, source frame): source = com + axes @ Clump.txt position",
-            ] + [" ".join(fnum(x) for x in row) for row in np.asarray(m.principal_axes)],
+            ] + [" ".join(fnum(x) for x in row) for row in P.axes[k]],
         }
         for path, lines in files.items():
             path.write_text("\n".join(lines) + "\n")

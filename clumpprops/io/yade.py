@@ -13,19 +13,23 @@ from typing import List, Sequence
 
 import numpy as np
 
-from ._common import Clump, fnum, header_lines
+from ._common import Clump, Props, fmt_rows, fnum, header_lines
 
 ENGINE = "YADE ymport.textClumps (exact values via clumpprops.yade.text_clumps)"
 
 
 def text(clumps: Sequence[Clump], mp, density: float, method: str, source: str = "", scale: float = 1.0) -> str:
-    batch = np.ndim(mp.mass) == 1
+    P = Props(mp)
     out = ["#format x_y_z_r_clumpId"] + [f"# {h}" for h in header_lines(ENGINE, density, method, source, scale)]
+    out.append("# per clump: mass kg, com x y z m, principal moments I1 I2 I3 kg m^2 (ascending)")
+    info = fmt_rows(np.column_stack([P.mass, P.com, P.moments]))
+    spheres = fmt_rows(np.concatenate([np.column_stack([c.centers, c.radii]) for c in clumps]))
+    i = 0
     for k, c in enumerate(clumps):
-        m = mp[k] if batch else mp
-        out.append(f"# clump {k} ({c.name}): mass {fnum(m.mass)} kg, com {' '.join(fnum(x) for x in m.center_of_mass)} m, "
-                   f"principal moments {' '.join(fnum(x) for x in m.principal_moments)} kg m^2")
-        out.extend(f"{fnum(p[0])} {fnum(p[1])} {fnum(p[2])} {fnum(r)} {k}" for p, r in zip(c.centers, c.radii))
+        out.append(f"# clump {k} ({c.name}): {info[k]}")
+        tail = f" {k}"
+        out.extend(row + tail for row in spheres[i:i + c.n_spheres])
+        i += c.n_spheres
     return "\n".join(out) + "\n"
 
 
