@@ -59,6 +59,8 @@ def test_lammps_own_sum_equals_exact_for_a_nonoverlapping_clump(tmp_path):
     (tmp_path / "in.own").write_text(PRE.format(setup="read_data apart.data") + "fix r all rigid/small molecule\n" + RL + "run 0\n")
     run(LAMMPS, tmp_path / "in.own", tmp_path)
     mass, com, moments, I = _rigid_local(tmp_path, 0)
+    print(f"LAMMPS own sum, no overlap: mass {_rel(mass, mp.mass):.1e}, COM {_rel(com, mp.center_of_mass):.1e}, "
+          f"tensor {_rel(I, mp.inertia):.1e}")
     assert _rel(mass, mp.mass) < 1e-13
     assert _rel(com, mp.center_of_mass) < 1e-13
     assert _rel(np.sort(moments), mp.principal_moments) < 1e-12
@@ -72,6 +74,8 @@ def test_lammps_infile_carries_the_exact_values_of_an_overlapping_clump(tmp_path
         PRE.format(setup="read_data asym.data") + "fix r all rigid/small molecule infile asym.rigid\n" + RL + "run 0\n")
     run(LAMMPS, tmp_path / "in.infile", tmp_path)
     mass, com, moments, I = _rigid_local(tmp_path, 0)
+    print(f"LAMMPS infile read-back: mass {_rel(mass, mp.mass):.1e}, COM {_rel(com, mp.center_of_mass):.1e}, "
+          f"moments {_rel(np.sort(moments), mp.principal_moments):.1e}, tensor {_rel(I, mp.inertia):.1e}")
     assert _rel(mass, mp.mass) < 1e-14
     assert _rel(com, mp.center_of_mass) < 1e-14
     assert _rel(np.sort(moments), mp.principal_moments) < 1e-12
@@ -94,6 +98,8 @@ def test_lammps_molecule_file_carries_the_exact_values(tmp_path):
         + RL + "run 1\n")
     run(LAMMPS, tmp_path / "in.mol", tmp_path)
     mass, com, moments, I = _rigid_local(tmp_path, 1)
+    print(f"LAMMPS molecule file read-back: mass {_rel(mass, mp.mass):.1e}, "
+          f"moments {_rel(np.sort(moments), mp.principal_moments):.1e}")
     assert _rel(mass, mp.mass) < 1e-14
     # principal moments: sensitive to the order of the six header values (see lammps.molecule_inertia_words)
     assert _rel(np.sort(moments), mp.principal_moments) < 1e-12
