@@ -4,8 +4,12 @@
 
 Random clumps (the paper's dimer shape, d = 0.1333 m, D = d/2, randomly placed and
 oriented; with --spheres K > 2, K overlapping spheres) are written to a YADE textClumps
-file, read back, computed once (exact method, one batch call) and exported to each engine
-into a temporary folder.  Prints seconds per stage and writes benchmarks/results/io.json.
+file, read back, computed once (exact method, one batch call) and exported into a
+temporary folder: all N clumps to the single-file outputs (YADE textClumps, LAMMPS
+infile + data file, DEME JSON), and the first --templates-n clumps to the formats with one
+file (or folder) per clump (LIGGGHTS sphere files, LAMMPS molecule files, DEME CSVs,
+MClump folders), whose cost is file creation.  Prints seconds per stage and writes
+benchmarks/results/io.json.
 """
 from __future__ import annotations
 
@@ -21,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from clumpprops.io import ENGINES, Clump, compute, export, read  # noqa: E402
+from clumpprops.io import Clump, compute, export, read  # noqa: E402
 
 
 def make_clumps(n, k, seed=1):
@@ -44,7 +48,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=100000)
     ap.add_argument("--spheres", type=int, default=2)
-    ap.add_argument("--engines", default=",".join(ENGINES))
+    ap.add_argument("--templates-n", type=int, default=10000)
     args = ap.parse_args()
     res = {"n_clumps": args.n, "spheres_per_clump": args.spheres, "seconds": {}}
     tmp = Path(tempfile.mkdtemp(prefix="bench_io_"))
@@ -58,12 +62,14 @@ def main():
         t = time.perf_counter()
         mp = compute(clumps, 1140.0)
         res["seconds"]["compute (exact, one batch)"] = time.perf_counter() - t
-        runs = [(e, True) for e in args.engines.split(",")] + [(e, False) for e in ("lammps", "deme")]
-        for engine, templates in runs:
-            label = engine if templates else f"{engine}/no-templates"
-            out = tmp / label.replace("/", "_")
+        runs = [("yade", True, args.n), ("lammps", False, args.n), ("deme", False, args.n)]
+        runs += [(e, True, min(args.templates_n, args.n)) for e in ("liggghts", "lammps", "deme", "mclump")]
+        for engine, templates, n in runs:
+            label = f"{engine}{'' if engine == 'yade' else '' if templates else '/no-templates'}"
+            label = f"{label} ({n} clumps{', per-clump files' if templates and engine != 'yade' else ''})"
+            out = tmp / f"{engine}_{templates}"
             t = time.perf_counter()
-            paths = export(clumps, engine, out, density=1140.0, mp=mp, templates=templates)
+            paths = export(clumps[:n], engine, out, density=1140.0, mp=mp if n == args.n else mp[:n], templates=templates)
             res["seconds"][f"write {label}"] = time.perf_counter() - t
             res.setdefault("files", {})[label] = len(paths)
             shutil.rmtree(out)
@@ -71,12 +77,12 @@ def main():
         shutil.rmtree(tmp, ignore_errors=True)
     print(f"{args.n} clumps of {args.spheres} spheres (exact method, SI, 17 digits)")
     for k, v in res["seconds"].items():
-        extra = f"  ({res['files'][k.split()[1]]} files)" if k.startswith("write") else ""
-        print(f"  {k:30s} {v:7.2f} s{extra}")
+        extra = f"  [{res['files'][k[6:]]} files]" if k.startswith("write") else ""
+        print(f"  {k:58s} {v:7.2f} s{extra}")
     total = res["seconds"]["read textClumps"] + res["seconds"]["compute (exact, one batch)"]
     for k, v in res["seconds"].items():
-        if k.startswith("write"):
-            print(f"  read + compute + {k:24s} {total + v:7.2f} s")
+        if k.startswith("write") and f"({args.n} clumps)" in k:
+            print(f"  read + compute + {k:41s} {total + v:7.2f} s")
     outdir = Path(__file__).resolve().parent / "results"
     outdir.mkdir(exist_ok=True)
     res["when"] = time.strftime("%Y-%m-%d %H:%M")

@@ -34,7 +34,7 @@ NTRY = 1000000
 
 
 def seeds(n: int, start: int = 15485863) -> List[int]:
-    """n distinct primes >= start (LIGGGHTS wants prime seeds > 10000), by a segmented sieve."""
+    """n distinct primes >= start (LIGGGHTS' docs ask for "prime number greater 10000"), by a segmented sieve."""
     out: List[int] = []
     lo = start
     while len(out) < n:
