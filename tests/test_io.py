@@ -91,7 +91,7 @@ def test_deme_json_and_mclump_inertia_files(tmp_path):
 
 
 def test_deme_float32_warning():
-    # moments of micrometre spheres in SI units are below float32's normal range
+    # moments of nanometre spheres in SI units are below float32's normal range
     rep = deme.float32_report(1e-15, [1e-40, 2e-40, 3e-40], np.array([[1e-6, 0, 0], [-1e-6, 0, 0]]), np.array([1e-6, 1e-6]))
     assert any("moi" in p for p in deme.float32_problems(rep))
     rep = deme.float32_report(1.0, [1.0, 1.0 + 1e-9, 2.0], np.zeros((1, 3)), np.ones(1))

@@ -14,7 +14,7 @@ mass along the principal axes, and the three principal moments ``moi``.  Per clu
 DEME stores clump mass, moments and sphere offsets as ``float`` (float32).  :func:`float32_report`
 gives the relative change each value suffers when rounded to float32; the exporter warns
 when it exceeds ``FLOAT32_TOL`` (values outside float32's normal range, e.g. moments of
-micrometre particles in SI units below 1.2e-38 kg m^2) or when two principal moments that
+nanometre particles in SI units below 1.2e-38 kg m^2) or when two principal moments that
 differ in float64 become equal in float32 (the principal axes then become arbitrary).
 """
 from __future__ import annotations
