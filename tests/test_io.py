@@ -130,6 +130,13 @@ def test_lammps_infile_columns(tmp_path):
     assert [float(x) for x in inertia] == [I[0, 0], I[1, 1], I[2, 2], I[1, 2], I[0, 2], I[0, 1]]
 
 
+def test_repeated_yade_ids_get_distinct_names(tmp_path):
+    (tmp_path / "r.txt").write_text("0 0 0 0.1 0\n1 0 0 0.1 1\n2 0 0 0.1 0\n")
+    names = [c.name for c in read(tmp_path / "r.txt")]
+    assert names == ["r_0", "r_1", "r_0_line3"]
+    assert len(export(read(tmp_path / "r.txt"), "liggghts", tmp_path / "o")) == 4
+
+
 def test_csv_with_and_without_header_and_scale(tmp_path):
     body = "\n".join(f"{x!r},{y!r},{z!r},{r!r}" for (x, y, z), r in zip(TEN.centers * 1000, TEN.radii * 1000))
     (tmp_path / "a.csv").write_text("x,y,z,r\n" + body + "\n")

@@ -195,7 +195,14 @@ def read_yade(path, scale: float = 1.0) -> List[Clump]:
     except OSError as exc:
         raise ClumpFileError(f"cannot read: {exc.strerror or exc}", str(path)) from None
     stem = _stem(path)
-    return [Clump(t.centers, t.radii, f"{stem}_{t.clump_id}" if len(tcs) > 1 else stem, str(path), tuple(t.lines)) for t in tcs]
+    out, used = [], set()
+    for t in tcs:
+        name = f"{stem}_{t.clump_id}" if len(tcs) > 1 else stem
+        if name in used:  # an id that comes back after other ids starts a new clump (as in YADE)
+            name = f"{name}_line{t.lines[0]}"
+        used.add(name)
+        out.append(Clump(t.centers, t.radii, name, str(path), tuple(t.lines)))
+    return out
 
 
 _MOL_SECTIONS = ("Coords", "Types", "Molecules", "Fragments", "Charges", "Diameters", "Masses", "Bonds", "Angles",
