@@ -50,39 +50,45 @@ def main():
     ap.add_argument("--spheres", type=int, default=2)
     ap.add_argument("--templates-n", type=int, default=10000)
     args = ap.parse_args()
-    res = {"n_clumps": args.n, "spheres_per_clump": args.spheres, "seconds": {}}
+    res = {"n_clumps": args.n, "spheres_per_clump": args.spheres, "seconds": {}, "cpu_seconds": {}}
     tmp = Path(tempfile.mkdtemp(prefix="bench_io_"))
     try:
         clumps = make_clumps(args.n, args.spheres)
         mp = compute(clumps, 1140.0)
         export(clumps, "yade", tmp, density=1140.0, mp=mp, stem="input")
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         clumps = read(tmp / "input_textclumps.txt")
         res["seconds"]["read textClumps"] = time.perf_counter() - t
-        t = time.perf_counter()
+        res["cpu_seconds"]["read textClumps"] = time.process_time() - c
+        t, c = time.perf_counter(), time.process_time()
         mp = compute(clumps, 1140.0)
         res["seconds"]["compute (exact, one batch)"] = time.perf_counter() - t
+        res["cpu_seconds"]["compute (exact, one batch)"] = time.process_time() - c
         runs = [("yade", True, args.n), ("lammps", False, args.n), ("deme", False, args.n)]
         runs += [(e, True, min(args.templates_n, args.n)) for e in ("liggghts", "lammps", "deme", "mclump")]
         for engine, templates, n in runs:
             label = f"{engine}{'' if engine == 'yade' else '' if templates else '/no-templates'}"
             label = f"{label} ({n} clumps{', per-clump files' if templates and engine != 'yade' else ''})"
             out = tmp / f"{engine}_{templates}"
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             paths = export(clumps[:n], engine, out, density=1140.0, mp=mp if n == args.n else mp[:n], templates=templates)
             res["seconds"][f"write {label}"] = time.perf_counter() - t
+            res["cpu_seconds"][f"write {label}"] = time.process_time() - c
             res.setdefault("files", {})[label] = len(paths)
             shutil.rmtree(out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    print(f"{args.n} clumps of {args.spheres} spheres (exact method, SI, 17 digits)")
+    print(f"{args.n} clumps of {args.spheres} spheres (exact method, SI, 17 digits); wall and CPU seconds")
     for k, v in res["seconds"].items():
         extra = f"  [{res['files'][k[6:]]} files]" if k.startswith("write") else ""
-        print(f"  {k:58s} {v:7.2f} s{extra}")
+        print(f"  {k:58s} {v:7.2f} s  cpu {res['cpu_seconds'][k]:6.2f} s{extra}")
     total = res["seconds"]["read textClumps"] + res["seconds"]["compute (exact, one batch)"]
+    ctotal = res["cpu_seconds"]["read textClumps"] + res["cpu_seconds"]["compute (exact, one batch)"]
     for k, v in res["seconds"].items():
         if k.startswith("write") and f"({args.n} clumps)" in k:
-            print(f"  read + compute + {k:41s} {total + v:7.2f} s")
+            print(f"  read + compute + {k:41s} {total + v:7.2f} s  cpu {ctotal + res['cpu_seconds'][k]:6.2f} s")
+    res["load_average_1min"] = os.getloadavg()[0]
+    print(f"  (load average {res['load_average_1min']:.1f} on {os.cpu_count()} cores)")
     outdir = Path(__file__).resolve().parent / "results"
     outdir.mkdir(exist_ok=True)
     res["when"] = time.strftime("%Y-%m-%d %H:%M")
