@@ -10,8 +10,9 @@ and its inertia tensor from ``compute erotate/multisphere`` with six known angul
   3.8.0 stores (Iyz + Ixz)/2 there (a symmetrisation typo fixed upstream after the release);
   with the exported ``inertia_tensor`` the bug is bypassed;
 * an overlapping asymmetric clump through the exported template (``use_density``): LIGGGHTS
-  uses our mass and inertia tensor (1e-12 relative), and our centre of mass: the free spin
-  below rotates about it;
+  uses our mass and inertia tensor (1e-12 relative), and our centre of mass: the member
+  velocities v = w x (x - xcm) of spinning bodies locate the point it turns about, which is
+  where the sphere file's origin went;
 * a free spin: member positions after 1 s follow the exact inertia (scipy solve_ivp) and
   are far from the summed-sphere prediction.
 """
@@ -70,7 +71,10 @@ def _template_lines(tmp_path, name, ntry=None):
 def read_back(tmp_path, template: str):
     """Mass and inertia tensor of the body LIGGGHTS builds from ``template`` (7 fresh bodies)."""
     blocks = [PRE.format(dt=1e-5, template=template, v="1 0 0", w="0 0 0") + "run 1\n"]
-    blocks += [PRE.format(dt=1e-5, template=template, v="0 0 0", w=" ".join(map(str, w))) + "run 1\n" for w in OMEGAS]
+    dump = ("dump c all custom 1 {} id x y z vx vy vz\n"
+            "dump_modify c format \"%d %.17g %.17g %.17g %.17g %.17g %.17g\" sort id\n")
+    blocks += [PRE.format(dt=1e-5, template=template, v="0 0 0", w=" ".join(map(str, w)))
+               + (dump.format(f"w{k}.dump") if k < 3 else "") + "run 1\n" for k, w in enumerate(OMEGAS)]
     (tmp_path / "in.readback").write_text("clear\n".join(blocks))
     out = run(LIGGGHTS, tmp_path / "in.readback", tmp_path)
     vals = []
@@ -86,6 +90,21 @@ def read_back(tmp_path, template: str):
     I[0, 2] = I[2, 0] = (E[4] - E[0] - E[2]) / 2
     I[1, 2] = I[2, 1] = (E[5] - E[1] - E[2]) / 2
     return mass, I, out
+
+
+def com_from_velocities(tmp_path):
+    """The body's centre of mass as LIGGGHTS moves it: member velocities v = w x (x - xcm) at
+    w = e_x, e_y, e_z (v_cm = 0) give xcm; also the member positions of the e_z body."""
+    xc = []
+    for k in range(3):
+        cols, a = read_dump(tmp_path / f"w{k}.dump")[1]
+        x, v = a[:, 1:4], a[:, 4:7]
+        w = np.eye(3)[k]
+        # v = w x (x - c)  =>  w x v = w (w.(x - c)) - (x - c): the components of c across w
+        c = x + np.cross(w, v) - np.outer((x @ w), w)
+        c[:, k] = np.nan
+        xc.append(c)
+    return np.nanmean(np.concatenate(xc), axis=0), read_dump(tmp_path / "w2.dump")[1][1][:, 1:4]
 
 
 def _rel(a, b):
@@ -106,6 +125,17 @@ def test_liggghts_uses_the_exported_mass_and_inertia_tensor(tmp_path):
     assert abs(mass / mp.mass - 1) < 1e-14
     assert _rel(I, mp.inertia) < 1e-12  # component order Ixx Ixy Ixz Iyy Iyz Izz and the off-diagonal sign
     assert abs(mass / summed.mass - 1) > 1e-2 and _rel(I, summed.inertia) > 1e-3
+    # centre of mass: the point the body turns about is where the sphere file's origin (our COM) went
+    xcm, x = com_from_velocities(tmp_path)
+    f = c.centers - mp.center_of_mass
+    U, _, Vt = np.linalg.svd((f - f.mean(0)).T @ (x - x.mean(0)))
+    R0 = (U @ Vt).T
+    origin = x.mean(0) - R0 @ f.mean(0)
+    err = np.max(np.abs(xcm - origin)) / 0.1
+    # the summed clump's centre of mass sits elsewhere in the file's frame
+    off = np.max(np.abs(summed.center_of_mass - mp.center_of_mass)) / 0.1
+    print(f"LIGGGHTS centre of mass (from member velocities) vs exported: {err:.1e} of 0.1 m (summed COM: {off:.1e})")
+    assert err < 1e-12 and off > 1e-3
 
 
 def test_liggghts_monte_carlo_agrees_with_exact_for_a_nonoverlapping_clump(tmp_path):
