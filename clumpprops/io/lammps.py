@@ -13,8 +13,9 @@ Files (SI; use ``units si`` in LAMMPS):
   LAMMPS would otherwise sum the member spheres (overlaps counted twice).
 * ``STEM.data``: the member spheres as a data file for ``atom_style hybrid sphere molecular``
   (``atom-ID type x y z diameter density molecule-ID``), so the infile's IDs match.
-* ``NAME.mol`` per clump, for ``fix rigid/small ... mol`` with ``create_atoms``/``fix pour``/
-  ``fix deposit``: spheres centred on the centre of mass, header lines ``mass``, ``com``
+* ``NAME.mol`` per clump, for ``fix rigid/small ... mol`` with ``fix deposit``/``fix pour``
+  (``... mol ID rigid FIX``; after ``create_atoms ... mol`` LAMMPS sums the created atoms
+  instead): spheres centred on the centre of mass, header lines ``mass``, ``com``
   (0 0 0) and ``inertia`` (tensor components in the order LAMMPS' source reads them,
   ``Ixx Iyy Izz Iyz Ixz Ixy``: see :func:`molecule_inertia_words`), sections
   ``Coords``, ``Types``, ``Diameters``, ``Masses`` (sphere masses rho 4/3 pi r^3; the
