@@ -85,8 +85,9 @@ def molecule_inertia_words(I) -> List[str]:
 
     LAMMPS' documentation lists ``Ixx Iyy Izz Ixy Ixz Iyz``, but ``Molecule::read`` stores the
     six numbers as they come into ``itensor[0..5]``, and ``itensor`` is in Voigt order
-    (xx, yy, zz, yz, xz, xy) everywhere else (``Molecule::compute_inertia``, ``fix rigid/small``
-    ``set_molecule``).  Checked in LAMMPS 29 Sep 2021 (Debian 12): with the documented order
+    (xx, yy, zz, yz, xz, xy) everywhere else (``Molecule::compute_inertia`` accumulates
+    ``itensor[3] -= m dy dz``, ``[4] -= m dx dz``, ``[5] -= m dx dy``).  Checked in LAMMPS
+    29 Sep 2021 (Debian 12): with the documented order
     the principal moments of an asymmetric clump came out wrong by 4e-4; with this order they
     match to 1e-15 (tests/test_engines_lammps.py).  So the file gets Ixx Iyy Izz Iyz Ixz Ixy.
     """
