@@ -214,6 +214,13 @@ def test_bad_file_as_a_subprocess(tmp_path):
     assert r.returncode == 1 and r.stderr == "clumpprops: error: nan.csv:2: y is not finite: 'nan'\n"
 
 
+def test_pairwise_triple_overlap_names_the_clump(tmp_path, capsys):
+    (tmp_path / "t.txt").write_text("0 0 0 0.1 0\n0.05 0 0 0.1 0\n# next\n0 0 0 0.1 1\n0.1 0 0 0.1 1\n0.05 0.05 0 0.1 1\n")
+    assert cli_main(["export", str(tmp_path / "t.txt"), "--to", "yade", "--method", "pairwise", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "t.txt:4: clump t_1: spheres (0, 1, 2) share a common region" in err
+
+
 def test_bad_mclump_and_options(tmp_path, capsys):
     (tmp_path / "c" / "Clump").mkdir(parents=True)
     (tmp_path / "c" / "Clump" / "Clump.txt").write_text("0,0,0,0.1\n0 0 0 0.1\n")

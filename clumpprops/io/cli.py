@@ -68,6 +68,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        stem=args.name, mp=mp, warn=warnings.append,
                        templates=not args.no_templates)
     except ClumpGeometryError as exc:
+        for c in clumps:  # point at the clump and its lines
+            try:
+                compute([c], args.density, args.method)
+            except ClumpGeometryError as one:
+                one = str(one).replace(" of clump 0 ", " ")  # a batch of one: the library's index says nothing
+                line = c.lines[0] if c.lines else None
+                return _fail(f"{c.source}:{line}: clump {c.name}: {one}" if line else f"{c.source}: clump {c.name}: {one}")
         return _fail(f"{args.file}: {exc}")
     except ClumpFileError as exc:
         return _fail(str(exc))
