@@ -191,12 +191,13 @@ def test_liggghts_free_spin_follows_the_exact_inertia(tmp_path):
     x0 = f0[1][1][:, 1:4]
     x1 = f1[nsteps][1][:, 1:4]
     rel0 = c.centers - mp.center_of_mass  # the exported sphere file
-    # LIGGGHTS places the body rigidly but (with use_density) not in the file's orientation:
-    # find that rotation from the inserted positions (Kabsch), then predict from there
+    # the body's orientation at step 1 from the inserted positions (Kabsch): LIGGGHTS inserts in
+    # the sphere file's orientation (orientation template), rigidly
     a0, f0 = x0 - x0.mean(0), rel0 - rel0.mean(0)
     U, _, Vt = np.linalg.svd(f0.T @ a0)
     R0 = (U @ Vt).T
     assert np.linalg.det(R0) > 0 and np.max(np.abs(a0 - f0 @ R0.T)) < 1e-12, "rigid placement of the template"
+    assert np.max(np.abs(R0 - np.eye(3))) < 1e-6, "template orientation"
     com = x0.mean(0) - R0 @ rel0.mean(0)  # where the file's origin (our centre of mass) went
     I0 = R0 @ mp.inertia @ R0.T
     w_ins = w0  # LIGGGHTS sets omega in the space frame
