@@ -18,3 +18,5 @@ bench: setup
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_massprops.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_yade_build.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_gas.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_io.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/engine_errors.py

@@ -266,6 +266,11 @@ FORMATTERS = {"table": format_table, "csv": format_csv, "json": format_json}
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``python -m clumpprops`` and the ``clumpprops`` console script; returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["export"]:  # clumpprops export FILE --to ENGINE (clumpprops/io/cli.py, docs/engines.md)
+        from .io.cli import main as export_main
+
+        return export_main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     options = _method_options(args, parser)

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Set up everything clumpprops needs on a fresh Debian 12 machine; idempotent.
-#  - Debian packages: YADE 2023.02a and the scientific stack for /usr/bin/python3 (YADE's interpreter)
+#  - Debian packages: YADE 2023.02a, LIGGGHTS 3.8.0 and LAMMPS (engine checks of the exporters), the scientific stack for /usr/bin/python3 (YADE's interpreter)
 #  - .venv: a venv of /usr/bin/python3 that sees those packages, can `import yade`,
 #    and has clumpprops installed in editable mode (console script `clumpprops`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PKGS="yade python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
+PKGS="yade liggghts lammps python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
 missing=""
 for p in $PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
