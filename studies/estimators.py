@@ -205,20 +205,47 @@ def correlation_time(lag_s, vacf):
 
 
 def _fit_exponential(t, y, tau0):
-    """Least-squares A exp(-t/tau) to (t, y): A profiled out, 1-D search over log tau."""
+    """Least-squares A exp(-t/tau) to (t, y) (unweighted, in C itself, not its log).
+
+    Gauss-Newton in (A, 1/tau) from tau0; falls back to a bounded 1-D search over log tau
+    with A profiled out if Gauss-Newton does not converge.  Returns (A at t = 0, tau).
+    """
+    s = t - t[0]
+
     def amp(tau):
-        e = np.exp(-(t - t[0]) / tau)
+        e = np.exp(-s / tau)
         return float(np.dot(e, y) / np.dot(e, e)), e
 
-    def sse(logtau):
-        a, e = amp(math.exp(logtau))
-        return float(np.sum((y - a * e) ** 2))
+    k = 1.0 / tau0
+    a, _ = amp(tau0)
+    ok = False
+    for _ in range(50):
+        e = np.exp(-k * s)
+        r = y - a * e
+        j1, j2 = e, -a * s * e                      # d(model)/dA, d(model)/dk
+        m11, m12, m22 = j1 @ j1, j1 @ j2, j2 @ j2
+        g1, g2 = j1 @ r, j2 @ r
+        det = m11 * m22 - m12 * m12
+        if not det > 0:
+            break
+        da = (m22 * g1 - m12 * g2) / det
+        dk = (m11 * g2 - m12 * g1) / det
+        a, k = a + da, k + dk
+        if not (np.isfinite(a) and np.isfinite(k) and k > 0):
+            break
+        if abs(dk) <= 1e-10 * k and abs(da) <= 1e-10 * abs(a):
+            ok = True
+            break
+    if not ok:
+        def sse(logtau):
+            aa, ee = amp(math.exp(logtau))
+            return float(np.sum((y - aa * ee) ** 2))
 
-    lo, hi = math.log(tau0) - math.log(10.0), math.log(tau0) + math.log(10.0)
-    res = optimize.minimize_scalar(sse, bounds=(lo, hi), method="bounded",
-                                   options={"xatol": 1e-5})
-    tau = math.exp(res.x)
-    a, _ = amp(tau)
+        lo, hi = math.log(tau0) - math.log(10.0), math.log(tau0) + math.log(10.0)
+        res = optimize.minimize_scalar(sse, bounds=(lo, hi), method="bounded", options={"xatol": 1e-8})
+        k = math.exp(-res.x)
+        a, _ = amp(1.0 / k)
+    tau = 1.0 / k
     return a * math.exp(t[0] / tau), tau          # amplitude at t = 0
 
 
