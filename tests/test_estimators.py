@@ -237,10 +237,10 @@ def test_sequential_status_met_and_projection():
     x = np.random.default_rng(2).normal(0.2, 1.0, 10)
     s = np.std(x, ddof=1)
     hw = stats.t.ppf(0.975, 9) * s / math.sqrt(10)
-    st = E.sequential_status(x, hw * 1.01)
+    st = E.sequential_status(x, hw * 1.01, min_n=8)
     assert st["met"] and st["more"] == 0 and E.next_batch(st) == 0
     assert st["halfwidth"] == pytest.approx(hw)
-    st = E.sequential_status(x, hw / 2)
+    st = E.sequential_status(x, hw / 2, min_n=8)
     assert not st["met"]
     n = st["n_needed"]
     assert stats.t.ppf(0.975, n - 1) * s / math.sqrt(n) <= hw / 2 < stats.t.ppf(0.975, n - 2) * s / math.sqrt(n - 1)
@@ -251,6 +251,7 @@ def test_sequential_status_met_and_projection():
     assert E.next_batch(st, batch=4, max_n=20) == 10
     assert E.sequential_status(x[:5], 10.0, min_n=8)["met"] is False     # min_n guards
     assert E.sequential_status(x, hw / 2, max_n=20)["capped"]
+    assert E.sequential_status(x, hw * 1.01)["more"] == 2        # default pilot: 12 pairs
 
 
 def test_sequential_stopping_on_the_spread_keeps_coverage():
@@ -258,7 +259,7 @@ def test_sequential_stopping_on_the_spread_keeps_coverage():
     q = {n: stats.t.ppf(0.975, n - 1) for n in range(2, 400)}
     hits, ns = [], []
     for _ in range(1000):
-        x = list(rng.normal(1.0, 1.0, 8))
+        x = list(rng.normal(1.0, 1.0, 12))
         while True:
             st = E.sequential_status(x, 0.5)
             k = E.next_batch(st, batch=2, max_n=300)
