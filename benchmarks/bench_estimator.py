@@ -2,8 +2,10 @@
 
 Each replica: 864 independent OU walkers (3-D), velocity correlation time tau (25 s),
 sigma_v^2 = 0.629 m^2/s^2 (the gas's translational energy per clump: D = sigma_v^2 tau =
-15.7 m^2/s), sampled exactly at frames 0.25 s apart for 1000 s after the cut; the first
-400 s of the same replica is the 400 s run.  From the frames, exactly as the engine will:
+15.7 m^2/s), sampled at frames 0.25 s apart (velocities exactly; positions by the trapezoidal rule on
+those velocities, whose D differs from sigma_v^2 tau by 8e-6).  Every replica gives a 400 s
+run; to fit the CPU budget of a shared 2-core machine only replicas 0-49 and every 5th
+after them are 1000 s long (their first 400 s are their 400 s run).  From the frames, exactly as the engine will:
 the VACF (time-origin and particle averaged, 16 particle groups, lags to 150 s) and the
 MSD (lags to 175 s, per group).  Estimators:
 
@@ -132,6 +134,18 @@ def sequential_sim(draw, truth, target, rng, n_sim=4000, min_n=8, batch=2, max_n
                 met_fraction=float(np.mean(met)), n_sim=n_sim)
 
 
+def relaxing_share(rng, t_end, amp, dt=0.25, tau_relax=28.4, sd=0.0105, corr=28.4):
+    """Rotational share 0.4 - amp exp(-t/tau_relax) + stationary AR(1) noise (the gas's:
+    Beta(864, 1296) has sd 0.0105; fluctuations decay at the relaxation rate)."""
+    from scipy.signal import lfilter
+
+    t = np.arange(0.0, t_end + dt / 2, dt)
+    a = math.exp(-dt / corr)
+    z = rng.normal(size=t.size) * sd * math.sqrt(1 - a * a)
+    z[0] = rng.normal() * sd
+    return t, 0.4 - amp * np.exp(-t / tau_relax) + lfilter([1.0], [1.0, -a], z)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--replicas", type=int, default=500)
@@ -142,6 +156,8 @@ def main(argv=None):
                     help="per-replica results, saved every 25 replicas (resumed from if present)")
     ap.add_argument("--long-first", type=int, default=50, help="replicas 0..k-1 are 1000 s runs (+ their first 400 s)")
     ap.add_argument("--long-every", type=int, default=5, help="after those, every k-th replica is a 1000 s run")
+    ap.add_argument("--first", type=int, default=0, help="first replica of this worker (to split the work)")
+    ap.add_argument("--merge", nargs="*", default=[], help="other workers' --raw files to add before summarising")
     ap.add_argument("--summarise-only", action="store_true", help="summarise the replicas in --raw so far")
     args = ap.parse_args(argv)
     from scipy import stats
@@ -157,26 +173,37 @@ def main(argv=None):
     S = {L: {k: np.full(args.replicas, np.nan) for k in names} for L in LENGTHS}
     DB = {k: np.full(args.replicas, np.nan) for k in GK_VARIANTS}
     frames = {L: int(round(L / DT)) + 1 for L in LENGTHS}
-    start, wall0 = 0, 0.0
+    start, wall0 = args.first, 0.0
     keyname = lambda L, k: f"{L:g}|{k}"      # noqa: E731
+
+    def load(path, resume):
+        z = np.load(path, allow_pickle=False)
+        if int(z["seed"]) != args.seed or float(z["tau"]) != tau:
+            print(f"ignoring {path}: other seed or tau")
+            return None
+        a, b = (int(z["first"]) if "first" in z.files else 0), int(z["done"])
+        for L in LENGTHS:
+            for k in names:
+                D[L][k][a:b] = z["D|" + keyname(L, k)][a:b]
+                S[L][k][a:b] = z["S|" + keyname(L, k)][a:b]
+        for k in GK_VARIANTS:
+            DB[k][a:b] = z["DB|" + k][a:b]
+        print(f"{'resuming after' if resume else 'merged'} replicas {a}-{b - 1} from {path}")
+        return b, float(z["wall"])
+
     if os.path.exists(args.raw):
-        z = np.load(args.raw, allow_pickle=False)
-        if int(z["seed"]) == args.seed and float(z["tau"]) == tau:
-            start, wall0 = int(z["done"]), float(z["wall"])
-            for L in LENGTHS:
-                for k in names:
-                    D[L][k][:start] = z["D|" + keyname(L, k)][:start]
-                    S[L][k][:start] = z["S|" + keyname(L, k)][:start]
-            for k in GK_VARIANTS:
-                DB[k][:start] = z["DB|" + k][:start]
-            print(f"resuming after {start} replicas from {args.raw}")
+        got = load(args.raw, True)
+        if got:
+            start, wall0 = got
+    for path in args.merge:
+        load(path, False)
 
     def save(done, wall):
         arrs = {"D|" + keyname(L, k): D[L][k] for L in LENGTHS for k in names}
         arrs.update({"S|" + keyname(L, k): S[L][k] for L in LENGTHS for k in names})
         arrs.update({"DB|" + k: DB[k] for k in GK_VARIANTS})
         tmp = args.raw + ".tmp.npz"
-        np.savez(tmp, seed=args.seed, tau=tau, done=done, wall=wall, **arrs)
+        np.savez(tmp, seed=args.seed, tau=tau, first=args.first, done=done, wall=wall, **arrs)
         os.replace(tmp, args.raw)
 
     def long_run(r):       # which replicas also give a 1000 s run (CPU budget: see --long-every)
@@ -207,20 +234,14 @@ def main(argv=None):
         if (r + 1) % 25 == 0 or r + 1 == args.replicas:
             save(r + 1, time.time() - t0)
             print(f"  {r + 1}/{args.replicas} replicas, {time.time() - t0:.0f} s", flush=True)
-    done = start if args.summarise_only else args.replicas
-    if done < args.replicas:
-        for L in LENGTHS:
-            for k in names:
-                D[L][k], S[L][k] = D[L][k][:done], S[L][k][:done]
-        for k in GK_VARIANTS:
-            DB[k] = DB[k][:done]
-    args.replicas = done
+    args.replicas = int(np.isfinite(D[400.0][PRIMARY]).sum())     # replicas present (400 s runs)
     wall = time.time() - t0
 
     rng = np.random.default_rng(args.seed + 1)
     table = {}
+    n_long = int(np.isfinite(D[1000.0][PRIMARY]).sum())
     print(f"\nOU walkers: N = {N}, dt = {DT} s, tau = {tau} s, D = {truth:.4f} m^2/s, "
-          f"{args.replicas} replicas, {wall:.0f} s wall")
+          f"{args.replicas} replicas of 400 s, {n_long} of 1000 s, {wall:.0f} s wall (this worker)")
     hdr = (f"{'run':>6} {'estimator':<12} {'bias %':>14} {'sd %':>6} {'cover 95':>9} {'SE/sd':>6} "
            f"{'t8 disj':>8} {'t8 res':>7}")
     print(hdr)
@@ -242,7 +263,7 @@ def main(argv=None):
         diff = diff[np.isfinite(diff)]
         p = dict(n=len(diff), mean=float(diff.mean()), sd=float(diff.std(ddof=1)),
                  bias_rel_to_truth=float(diff.mean() / (truth_b - truth) - 1),
-                 corr=float(np.corrcoef(DB[k], D[400.0][k])[0, 1]))
+                 corr=float(np.corrcoef(*[a[np.isfinite(DB[k] - D[400.0][k])] for a in (DB[k], D[400.0][k])])[0, 1]))
         for n in (8, 40):
             p[f"t{n}"] = seed_coverage(diff, truth_b - truth, n, rng)
         pairs[k] = p
@@ -279,12 +300,32 @@ def main(argv=None):
         print(f"  {name:<48} coverage {100 * r['coverage']:5.1f}% ± {100 * r['coverage_se']:.1f}, "
               f"n mean {r['n_mean']:.1f} (max {r['n_max']}), met {100 * r['met_fraction']:.0f}%")
 
+    # equilibration cut on the paper's relaxation with the gas's share noise
+    print("\nequilibration cut: share = 0.4 - 0.36 exp(-t/28.4 s) + AR(1) noise (sd 0.0105, correlation 28.4 s)")
+    eq = {}
+    for t_end in (400.0, 1000.0):
+        for amp in (0.36, 0.0):
+            cuts, oks = [], []
+            for sd_seed in range(200):
+                t, y = relaxing_share(np.random.default_rng([args.seed, 7, int(t_end), int(amp > 0), sd_seed]),
+                                      t_end, amp)
+                res = E.detect_equilibration(t, y, 0.4)
+                cuts.append(res["t_cut"])
+                oks.append(res["ok"])
+            cuts = np.array(cuts)
+            key = f"{t_end:g}s|{'relaxing' if amp else 'stationary'}"
+            pct = np.nanpercentile(cuts, [5, 50, 95]) if np.isfinite(cuts).any() else [np.nan] * 3
+            eq[key] = dict(n=len(cuts), cut_p5=float(pct[0]), cut_median=float(pct[1]), cut_p95=float(pct[2]),
+                           no_cut=float(np.mean(~np.isfinite(cuts))), ok=float(np.mean(oks)))
+            print(f"  {key:<18} cut 5/50/95 % = {pct[0]:5.0f} {pct[1]:5.0f} {pct[2]:5.0f} s, ok {100 * np.mean(oks):5.1f} %")
+
     out = dict(
         config=dict(N=N, dt_s=DT, tau_s=tau, sigma_v2=SIGMA_V2, D_true=truth, replicas=args.replicas,
+                    replicas_1000s=n_long,
                     lengths_s=list(LENGTHS), groups=GROUPS, max_lag_vacf_s=MAX_LAG_VACF * DT,
                     max_lag_msd_s=MAX_LAG_MSD * DT, pair_ratio=PAIR_RATIO, pair_noise_corr=PAIR_RHO,
                     seed=args.seed, gk_fit_window=list(E.GK_FIT_WINDOW), primary=PRIMARY),
-        estimators=table, pairs=pairs, sequential=seq,
+        estimators=table, pairs=pairs, sequential=seq, equilibration=eq,
         per_run={f"{L:g}s|{k}": [None if not np.isfinite(v) else round(float(v), 6) for v in D[L][k]]
                  for L in LENGTHS for k in (PRIMARY, *OLS_WINDOWS)},
         wall_s=round(wall, 1), machine=dict(python=platform.python_version(), numpy=np.__version__,
