@@ -293,7 +293,7 @@ def main(argv=None):
         "control: stop when interval excludes 0": (normal, 0.0, 0.5, True, 8),
     }
     for name, (draw, tru, target, wrong, min_n) in cases.items():
-        r = sequential_sim(draw, tru, target, rng, n_sim=2000 if wrong else 4000, stop_on_mean=wrong,
+        r = sequential_sim(draw, tru, target, rng, n_sim=2000 if wrong else 3000, stop_on_mean=wrong,
                            max_n=60 if wrong else 400, min_n=min_n)
         r["min_n"] = min_n
         seq[name] = r

@@ -591,8 +591,7 @@ def next_batch(status, batch=2, max_n=None, overshoot=1.0):
     if status["met"]:
         return 0
     n = status["n"]
-    more = status["more"] if status["n_needed"] is not None else status["more"]
-    more = int(math.ceil(max(more, 1) * overshoot))
+    more = int(math.ceil(max(status["more"], 1) * overshoot))
     more = int(math.ceil(more / batch)) * batch
     if max_n is not None:
         more = min(more, max_n - n)
