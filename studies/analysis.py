@@ -18,16 +18,19 @@ ratio.csv              case, lag_s, ratio, ci_low, ci_high, n_seeds:
 ratio_D.csv            the same ratio for the diffusion coefficients
 diff_D.csv             D_case - D_exact paired by seed, with a t-interval (absolute and relative)
 protocol_effect.csv    D_equal_energy / D_paired of a case, paired by seed, vs sqrt(m_exact / m)
-diffusion_sensitivity.csv  D and D - D_exact for other equilibration cuts / fit windows
+diffusion_sensitivity.csv  OLS D and D - D_exact for other equilibration cuts / fit windows
 energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
 energy_equal_energy.csv  the same for the equal-energy runs
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
 
-MSD: time-origin averaged (FFT, :mod:`studies.msd`) over frames with t >= t_eq (the record's
-analysis window starting at t_eq; the zero-spin start has all energy translational and
-rotation equilibrates in ~25 s).  D per seed: slope / 6 of
-a least-squares line through MSD(lag) for lag in [fit_lo, fit_hi]; the case's D is the mean
-over seeds with a Student-t 95 % interval (seeds are independent; particles within a run are not).
+MSD: time-origin averaged (FFT, :mod:`studies.msd`) over the record's analysis window from
+t_eq on (``analysis.t_eq``, or "auto": detected from the rotational share of kinetic energy,
+:func:`studies.design.analysis_cut`).  D per seed: Green-Kubo on the window's velocity
+autocorrelation (:func:`studies.design.run_d`, docs/estimator.md); ``runs.csv`` also lists the
+per-run jackknife SE, the cut, and the first version's estimator (slope / 6 of a least-squares
+line through MSD(lag) for lag in [fit_lo, fit_hi]), which ``diffusion_sensitivity.csv`` uses for
+other cuts and windows.  The case's D is the mean over seeds with a Student-t 95 % interval
+(seeds are independent; particles within a run are not).
 """
 from __future__ import annotations
 
@@ -38,10 +41,10 @@ import time
 
 import numpy as np
 
-from . import engine
+from . import design, engine
 from . import spec as S
 
-ESTIMATOR = "ols_msd"      # D per run: OLS slope / 6 of the MSD on [fit_lo, fit_hi] (legacy)
+ESTIMATOR = design.ESTIMATOR   # D per run: Green-Kubo (docs/estimator.md); OLS on the MSD kept for comparison
 
 
 def _paired_with_exact(per):
@@ -71,18 +74,9 @@ def t_interval(x, conf=0.95):
     return m, m - h, m + h, se, n
 
 
-def window_of(rec, t_eq):
-    """The record's analysis window starting at ``t_eq`` (s)."""
-    for w in rec["windows"]:
-        if abs(w["t_cut"] - t_eq) < 1e-9:
-            return w
-    raise KeyError(f"run {rec['name']} has no analysis window from t = {t_eq} s "
-                   f"(stored: {[w['t_cut'] for w in rec['windows']]}): add it to analysis.cuts and rerun")
-
-
-def run_msd(rec, t_eq):
-    """(lags_s, msd) of one run record from t_eq on (log-spaced lags)."""
-    w = window_of(rec, t_eq)
+def run_msd(rec, t_cut):
+    """(lags_s, msd) of one run record from t_cut on (log-spaced lags)."""
+    w = design.window_of(rec, t_cut)
     return np.asarray(w["msd_lag_s"]), np.asarray(w["msd"])
 
 
@@ -128,7 +122,7 @@ def analyze(spec, log=print):
     a = spec["analysis"]
     out = engine.results_dir(spec)
     rows_m, recs = load_records(spec)
-    t_eq = a["t_eq"] if a["t_eq"] != "auto" else 0.0
+    t_eq = a["t_eq"]
     missing = [r["name"] for r in rows_m.values() if r["status"] not in ("done", "flagged")]
     if missing:
         log(f"[analyze] {len(missing)} runs not finished (analysing the rest): {', '.join(missing[:4])}...")
@@ -140,22 +134,31 @@ def analyze(spec, log=print):
 
     # ---- MSD and D per run ----
     per = {}          # (case, protocol) -> {seed: (lag, msd, D, run)}
+    extra = {}        # run name -> (D_stderr, t_cut, detected cut, D_ols)
     for s, n, r in good:
-        lag, msd = run_msd(r, t_eq)
-        d = fit_d(lag, msd, a["fit_lo"], a["fit_hi"])
-        per.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = (lag, msd, d, r)
+        g = design.run_d(r, t_eq)
+        lag, msd = run_msd(r, g["t_cut"])
+        try:
+            d_ols = fit_d(lag, msd, a["fit_lo"], a["fit_hi"])
+        except ValueError:
+            d_ols = np.nan
+        extra[n] = (g["D_stderr"], g["t_cut"], g["t_cut_detected"], d_ols)
+        per.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = (lag, msd, g["D"], r)
 
     rows = []
     for s, n, r in runs:
         d = per.get((s["case"], s["protocol"]), {}).get(s["seed"], (None, None, np.nan))[2]
         c = r["checks"]
+        se, t_cut, t_det, d_ols = extra.get(n, (np.nan, np.nan, None, np.nan))
         rows.append([s["case"], s["protocol"], s["seed"], n, bool(c["ok"]), "; ".join(c["fail_reasons"]),
-                     c["energy_drift"], c["momentum_drift"], d, r["facts"]["steps_per_s"], r["facts"]["wall_run_s"],
+                     c["energy_drift"], c["momentum_drift"], d, se, d_ols, t_cut,
+                     np.nan if t_det is None else t_det, r["facts"]["steps_per_s"], r["facts"]["wall_run_s"],
                      r["facts"]["builder"], r["git_commit"] + ("-dirty" if r["git_dirty"] else ""),
                      r["yade_version"], r["rot_algorithm"], r["key"]])
     _write_csv(os.path.join(out, "runs.csv"),
                ["case", "protocol", "seed", "run", "ok", "fail_reasons", "energy_drift", "momentum_drift",
-                "diffusion_coefficient", "steps_per_s", "wall_run_s", "builder", "git_commit", "yade_version",
+                "diffusion_coefficient", "diffusion_stderr_run", "diffusion_coefficient_ols", "t_cut", "t_cut_detected",
+                "steps_per_s", "wall_run_s", "builder", "git_commit", "yade_version",
                 "rot_algorithm", "key"], rows)
 
     # ---- D per case with a t-interval ----

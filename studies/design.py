@@ -76,9 +76,12 @@ def run_d(rec, t_eq):
     """Green-Kubo D (m^2/s) of one run record, its jackknife SE over particle groups, and the cut."""
     t_cut, detected = analysis_cut(rec, t_eq)
     w = window_of(rec, t_cut)
-    lag = np.asarray(w["vacf_lag_s"])
-    d = est.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
-    se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"]))
+    lag = np.arange(len(w["vacf"])) * w["frame_interval"]      # the stored lags are rounded to 7 digits
+    try:
+        d = est.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
+        se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"]))
+    except ValueError as e:
+        raise ValueError(f"run {rec['name']}: no Green-Kubo D from the window at {t_cut} s: {e}") from None
     return {"D": float(d), "D_stderr": float(se), "t_cut": t_cut, "t_cut_detected": detected}
 
 

@@ -59,26 +59,3 @@ def msd_bruteforce(x):
         out[m] = np.mean(np.sum((x[m:] - x[:-m]) ** 2, axis=-1))
     return out
 
-
-def vacf_fft(v, max_lag, groups=1):
-    """Time-origin averaged velocity autocorrelation <v(0) . v(m)> (3-D dot product), by FFT.
-
-    ``v`` (T, N, 3) velocities at evenly spaced frames; returns (groups, max_lag + 1): entry
-    [g, m] averages v_k . v_{k+m} over the T - m time origins and the particles of group g
-    (particles split by index into ``groups`` contiguous blocks of near-equal size).
-    """
-    v = np.asarray(v, dtype=np.float64)
-    T, N = v.shape[:2]
-    if not 0 <= max_lag < T:
-        raise ValueError(f"max_lag {max_lag} must be in [0, {T - 1}]")
-    c = _autocorr(v.reshape(T, 3 * N)).reshape(N, 3, T).sum(axis=1)[:, :max_lag + 1]   # (N, L)
-    c /= (T - np.arange(max_lag + 1))[None, :]
-    bounds = np.linspace(0, N, groups + 1).round().astype(int)
-    return np.array([c[a:b].mean(axis=0) for a, b in zip(bounds[:-1], bounds[1:])])
-
-
-def vacf_bruteforce(v, max_lag):
-    """O(T^2) definition of the particle-averaged VACF (for tests)."""
-    v = np.asarray(v, dtype=np.float64)
-    T = v.shape[0]
-    return np.array([np.mean(np.sum(v[m:] * v[:T - m], axis=-1)) for m in range(max_lag + 1)])

@@ -3,14 +3,16 @@
 The reduced record holds what every analysis needs, so the raw trajectory (tens of MB) can be
 deleted: the run's checks (energy and momentum drift, finiteness), the energy partition every
 second, and for each analysis window [t_cut, t_end] the particle-averaged MSD on a log-spaced lag
-grid and the velocity autocorrelation (VACF) on the frame grid up to ``max_lag``, overall and
-for 8 disjoint particle groups (for per-run standard errors).  Pure numpy; no YADE, no driver.
+grid and the velocity autocorrelation (VACF, :func:`studies.estimators.vacf_fft`) on the frame
+grid up to ``max_lag``, overall and for 8 disjoint particle groups (contiguous index blocks,
+:func:`studies.estimators.group_labels`; for per-run jackknife standard errors).  Pure numpy; no YADE, no driver.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .msd import msd_fft, vacf_fft
+from .estimators import vacf_fft
+from .msd import msd_fft
 
 REDUCTION_VERSION = 1
 N_GROUPS = 8
@@ -64,12 +66,12 @@ def window(frames, t_cut, max_lag_s, n_groups=N_GROUPS, n_msd=160):
     n_half = len(lag) // 2 + 1                # lags up to half the window are well averaged
     idx = np.unique(np.concatenate([[0], np.round(np.geomspace(1, n_half - 1, n_msd)).astype(int)]))
     n_lag = min(int(round(max_lag_s / dt_f)), len(tt) - 2)
-    vg = vacf_fft(frames["vel"][keep], n_lag, groups=n_groups)
+    vacf, vg = vacf_fft(frames["vel"][keep], n_lag, groups=n_groups)
     return {"t_cut": float(t_cut), "t_start": float(tt[0]), "t_end": float(tt[-1]), "n_frames": int(len(tt)),
             "frame_interval": dt_f,
             "msd_lag_s": _r(lag[idx]), "msd": _r(msd[idx]),
-            "vacf_lag_s": _r(np.arange(n_lag + 1) * dt_f),
-            "vacf": _r(vg.mean(axis=0)),
+            "vacf_lag_s": (np.arange(n_lag + 1) * dt_f).tolist(),
+            "vacf": _r(vacf),
             "vacf_groups": [_r(g) for g in vg]}
 
 
