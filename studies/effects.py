@@ -28,9 +28,9 @@ COLUMNS = ("shape", "overlap", "protocol", "youngs_modulus", "case", "n_pairs", 
 
 
 def _pair_key(params):
-    """Everything of a run's parameters but the case (and the sphere options): runs with the same
+    """Everything of a run's parameters but case, protocol, seed and sphere options: runs with the same
     pair key and seed are a paired comparison."""
-    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol")}
+    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed")}
     return S.run_key(p)
 
 

@@ -1,0 +1,171 @@
+"""The analysis pipeline on synthetic runs with a known answer (no YADE).
+
+Ornstein-Uhlenbeck walkers with a known D are written as the YADE script's frames, reduced by
+:mod:`studies.reduce` into run records exactly as the engine does, and then read back by the
+analysis (Green-Kubo D per run, Student-t over seeds), the equilibration cut, the sequential
+design and effects.csv.
+"""
+import json
+import math
+import os
+import sys
+import tomllib
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from studies import analysis, design, effects, engine, estimators as est, reduce as red, runner
+from studies import spec as S
+
+TAU, SIGMA_V = 25.0, math.sqrt(0.629)         # s, m/s per component: the gas's values
+D_TRUE = SIGMA_V ** 2 * TAU                    # m^2/s
+
+
+def frames_of(rng, n, t_end, dt, D_scale=1.0, share=None):
+    """Frames as yade_scripts/granular_gas.py writes them, from OU walkers of D = D_scale D_TRUE."""
+    nf = int(round(t_end / dt)) + 1
+    vel, pos = est.simulate_ou(rng, n, nf, dt, TAU, SIGMA_V * math.sqrt(D_scale))
+    t = np.arange(nf) * dt
+    m = 2.0
+    e_t = 0.5 * m * np.sum(vel ** 2, axis=(1, 2))
+    s = share(t) if share is not None else np.full(nf, 0.4)
+    e_r = e_t * s / (1 - s)
+    return {"t": t, "disp": (pos - pos[0]).astype(np.float32), "vel": vel.astype(np.float32), "e_trans": e_t,
+            "e_rot": e_r, "e_elastic": np.zeros(nf), "momentum": np.zeros((nf, 3))}, vel[0]
+
+
+def write_record(rdir, run, frames, v0, cuts, max_lag, rot_dof=2, wall_s=600.0):
+    rin = {"initial": {"vel": v0.tolist()}, "body": {"mass": 2.0}}
+    rec = red.reduce_run(frames, rin, cuts, max_lag, energy_tol=1.0, momentum_tol=1.0)
+    rec.update(key=run["key"], name=run["name"], shape=run["shape"], case=run["case"], protocol=run["protocol"],
+               seed=run["seed"], params=run["params"], yade_version="synthetic", rot_algorithm="synthetic",
+               host="test", wall_s=wall_s, git_commit="0" * 40, git_dirty=False, box_length=10.0, rot_dof=rot_dof,
+               case_body={"mass": 2.0 if run["case"] == "exact" else 2.2}, exact_mass=2.0,
+               facts={"steps_per_s": 1.0, "wall_run_s": wall_s, "builder": "synthetic", "dt": 1e-3})
+    runner.write_atomic(runner.record_path(rdir, run), json.dumps(rec))
+    return rec
+
+
+def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None):
+    with open(os.path.join(S.SPEC_DIR, "dimer_paired.toml"), "rb") as f:
+        r = tomllib.load(f)
+    r["study"]["results"] = str(tmp / "results")
+    if budget is not None:
+        r["study"]["budget_cpu_hours"] = budget
+    r["analysis"].update(t_eq=t_eq, cuts=list(cuts), max_lag=max_lag, fit_lo=125.0, fit_hi=175.0)
+    r["groups"] = groups
+    sp = S.validate(r)
+    sp["path"] = "synthetic"
+    return sp
+
+
+def test_analysis_recovers_a_known_D_and_a_known_difference(tmp_path):
+    """12 seeds x (exact, uncorrected) of 216 walkers, 400 s: the uncorrected walkers' D is 10 %
+    larger.  summary.csv and diff_D.csv must recover D and the +10 % within their intervals,
+    with intervals of the width the per-run scatter implies."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 13))}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(2024)
+    for run in S.runs(sp):
+        fr, v0 = frames_of(rng, 216, 400.0, 0.25, 1.0 if run["case"] == "exact" else 1.1)
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    analysis.analyze(sp, log=lambda *a: None)
+    s = pd.read_csv(tmp_path / "results" / "summary.csv").set_index("case")
+    for case, truth in (("exact", D_TRUE), ("uncorrected", 1.1 * D_TRUE)):
+        row = s.loc[case]
+        assert row.n_seeds == 12
+        assert row.ci_low <= truth <= row.ci_high, (case, row.to_dict(), truth)
+        assert (row.ci_high - row.ci_low) / 2 / truth < 0.03     # 216 walkers x 400 s: ~2-3 % per run
+    d = pd.read_csv(tmp_path / "results" / "diff_D.csv").set_index("case").loc["uncorrected"]
+    assert d.relative_ci_low <= 0.10 <= d.relative_ci_high and d.relative_ci_low > 0.03
+    runs = pd.read_csv(tmp_path / "results" / "runs.csv")
+    assert (runs.t_cut == 0.0).all() and runs.diffusion_stderr_run.notna().all()
+    # the per-run jackknife SE agrees with the scatter of D over seeds (within a factor 1.6)
+    ex = runs[runs.case == "exact"]
+    assert 1 / 1.6 < ex.diffusion_stderr_run.mean() / ex.diffusion_coefficient.std(ddof=1) < 1.6
+
+
+def test_effects_table_pairs_by_seed(tmp_path, monkeypatch):
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(1, 9))}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(7)
+    for run in S.runs(sp):
+        fr, v0 = frames_of(rng, 108, 300.0, 0.5, 1.0 if run["case"] == "exact" else 0.95)
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    rows = effects.write([sp], str(tmp_path / "effects.csv"))
+    t = pd.read_csv(tmp_path / "effects.csv")
+    assert list(t.columns) == list(effects.COLUMNS)
+    assert len(rows) == 1 and rows[0]["case"] == "mass_only" and rows[0]["n_pairs"] == 8
+    assert rows[0]["relative_ci_low"] <= -0.05 <= rows[0]["relative_ci_high"]
+    assert rows[0]["mass_error"] == pytest.approx(5 / 27, rel=1e-12)     # 32/27 - 1: the paper's dimer
+
+
+def test_auto_cut_detected_from_the_rotational_share(tmp_path):
+    """The paper's zero-spin start: the rotational share relaxes as 0.4 - 0.36 exp(-t/28.4 s);
+    the detected cut must lie where the share is within its fluctuation of 0.4, and the analysis
+    window is the next stored one."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], t_eq="auto",
+                  cuts=(0.0, 50.0, 125.0, 200.0))
+    rng = np.random.default_rng(3)
+    noise = lambda t: 0.004 * np.sin(t / 3.0) + 0.004 * rng.standard_normal(len(t))   # noqa: E731
+    fr, v0 = frames_of(rng, 64, 600.0, 0.25, share=lambda t: 0.4 - 0.36 * np.exp(-t / 28.4) + noise(t))
+    run = S.runs(sp)[0]
+    rec = write_record(engine.results_dir(sp), run, fr, v0, [0.0, 50.0, 125.0, 200.0], 100.0)
+    t_cut, t_det = design.analysis_cut(rec, "auto")
+    # 0.36 exp(-t/28.4) falls below the noise (~0.004) after about 28.4 ln(90) = 128 s
+    assert 60.0 <= t_det <= 200.0
+    assert t_cut == min(c for c in (0.0, 50.0, 125.0, 200.0) if c >= t_det)
+    # a series that never settles has no cut
+    fr2, _ = frames_of(rng, 64, 600.0, 0.25, share=lambda t: 0.4 - 0.36 * np.exp(-t / 400.0))
+    rec2 = red.reduce_run(fr2, {"initial": {"vel": v0.tolist()}, "body": {"mass": 2.0}}, [0.0], 100.0, 1.0, 1.0)
+    rec2.update(rot_dof=2, name="never")
+    with pytest.raises(ValueError, match="no equilibration cut|after every stored window"):
+        design.analysis_cut(rec2, "auto")
+
+
+def _sequential(tmp_path, noise_sd, budget=None, max_seeds=20):
+    """Paired runs whose D ratio is 1.05 (1 + noise_sd z): the uncorrected run of a seed is the
+    exact run's walkers with velocities and displacements scaled (D scales with their square)."""
+    g = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 13)),
+         "target": {"case": "uncorrected", "halfwidth": 0.02, "batch": 2}, "max_seeds": max_seeds}
+    sp = spec_for(tmp_path, [g], budget=budget)
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(11)
+    by_seed = {}
+    for run in S.runs(sp):
+        if run["seed"] not in by_seed:
+            by_seed[run["seed"]] = frames_of(rng, 48, 250.0, 0.5)
+        fr, v0 = by_seed[run["seed"]]
+        if run["case"] != "exact":
+            a = math.sqrt(1.05 * (1.0 + noise_sd * rng.standard_normal()))
+            fr = dict(fr, disp=fr["disp"] * np.float32(a), vel=fr["vel"] * np.float32(a))
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    return sp, rdir
+
+
+def test_sequential_design_stops_when_the_target_is_met(tmp_path):
+    sp, rdir = _sequential(tmp_path, noise_sd=0.0)        # every pair: D ratio 1.05, no scatter
+    extra, status = design.plan(sp, rdir)
+    st = status[0]
+    assert st["n"] == 12 and st["finished"] and st["state"] == "target met" and extra[0] == []
+    assert st["mean"] == pytest.approx(0.05, abs=1e-5) and st["halfwidth"] < 1e-4
+    assert S.runs(sp, extra_seeds=extra) == S.runs(sp)     # nothing more to run
+
+
+def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path):
+    sp, rdir = _sequential(tmp_path, noise_sd=0.3)        # large scatter: 2 % is far away
+    extra, status = design.plan(sp, rdir)
+    assert extra[0] == [13, 14] and status[0]["state"] == "running" and status[0]["n_needed"] > 20
+    runs = S.runs(sp, extra_seeds=extra)
+    assert {r["seed"] for r in runs} == set(range(1, 15))  # the driver will run seeds 13 and 14
+    sp2, rdir2 = _sequential(tmp_path / "b", noise_sd=0.3, budget=1.0)   # 24 runs x 600 s = 4 CPU-h > 1
+    extra2, status2 = design.plan(sp2, rdir2)
+    assert extra2[0] == [] and status2[0]["state"] == "budget spent"
+    assert "budget" in design.describe(0, sp2["groups"][0], status2[0])
+    sp3, rdir3 = _sequential(tmp_path / "c", noise_sd=0.3, max_seeds=12)
+    extra3, status3 = design.plan(sp3, rdir3)
+    assert extra3[0] == [] and status3[0]["state"] == "max_seeds reached"
