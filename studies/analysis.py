@@ -42,6 +42,7 @@ import time
 import numpy as np
 
 from . import design, engine
+from .estimators import ols_msd as fit_d, t_interval
 from . import spec as S
 
 ESTIMATOR = design.ESTIMATOR   # D per run: Green-Kubo (docs/estimator.md); OLS on the MSD kept for comparison
@@ -58,35 +59,10 @@ def _paired_with_exact(per):
             yield case, prot, seeds, ex, common
 
 
-def t_interval(x, conf=0.95):
-    """(mean, low, high, stderr, n) of a sample with a Student-t interval."""
-    from scipy import stats
-
-    x = np.asarray(x, float)
-    n = len(x)
-    if n == 0:
-        return (np.nan,) * 4 + (0,)
-    m = float(np.mean(x))
-    if n < 2:
-        return m, np.nan, np.nan, np.nan, n
-    se = float(np.std(x, ddof=1) / np.sqrt(n))
-    h = float(stats.t.ppf(0.5 + conf / 2, n - 1)) * se
-    return m, m - h, m + h, se, n
-
-
 def run_msd(rec, t_cut):
     """(lags_s, msd) of one run record from t_cut on (log-spaced lags)."""
     w = design.window_of(rec, t_cut)
     return np.asarray(w["msd_lag_s"]), np.asarray(w["msd"])
-
-
-def fit_d(lag, msd, lo, hi):
-    """D (m^2/s) = slope / 6 of a least-squares line through MSD(lag) for lo <= lag <= hi."""
-    sel = (lag >= lo) & (lag <= hi)
-    if sel.sum() < 3:
-        raise ValueError(f"fit window [{lo}, {hi}] s has {sel.sum()} lags (max lag {lag[-1]:.1f} s)")
-    slope = np.polyfit(lag[sel], msd[sel], 1)[0]
-    return slope / 6.0
 
 
 def _write_csv(path, header, rows):
@@ -104,16 +80,9 @@ def label(case, protocol):
 
 
 def load_records(spec):
-    """(manifest rows, records) of a spec's runs: records of the runs the manifest lists as done
-    or flagged, read from the results directory."""
+    """(manifest rows, records by key) of a spec's runs, from the results directory."""
     rdir = engine.results_dir(spec)
-    rows = engine.reconcile(spec, S.runs(spec), rdir)
-    recs = {}
-    for key, row in rows.items():
-        if row["status"] in ("done", "flagged"):
-            with open(os.path.join(rdir, row["record"])) as f:
-                recs[key] = json.load(f)
-    return rows, recs
+    return engine.reconcile(spec, S.runs(spec), rdir), design.load_records(spec, rdir)
 
 
 def analyze(spec, log=print):
