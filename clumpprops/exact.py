@@ -38,8 +38,11 @@ from .pairwise import sphere_moments
 _FOUR_PI = 4.0 * np.pi
 # candidate poles: 6 axes, 12 edge and 8 corner directions of a cube, and 6 more
 _POLES = None
-_CHUNK_ELEMENTS = 2_000_000
-_RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (see _caps)  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+_CHUNK_ELEMENTS = 2_000_000  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+_RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (see _caps)
+# a sphere protruding from another by at most this fraction of the smaller radius is
+# inside it (see _buried_spheres and docs/exact_method.md, section 2a)
+_TAU_NESTED = 1e-13
 
 
 def _poles():
@@ -55,6 +58,30 @@ def _poles():
     return _POLES
 
 
+def _buried_spheres(a, b, D, ra, rb, S):
+    """(S,) bool: spheres removed whole because they lie inside another sphere, up to tau.
+
+    Sphere a counts as inside sphere b when its protrusion p_ab = (r_a - r_b) + D (how far
+    ball a reaches out of ball b) is at most _TAU_NESTED * min(r_a, r_b): scale-aware, so
+    a configuration and its image scaled by any factor get the same decision.  The part
+    of ball a outside ball b then has volume < 4 pi r_a^2 p_ab (docs/exact_method.md,
+    section 2a).  When both spheres of a pair count as inside each other (near-identical
+    spheres), exactly one is removed: the one later in the strict order (larger radius
+    first, then lower index), so every removal goes up that order, no cycle can remove
+    both, and the first sphere of the order in each group of near-identical spheres stays.
+    """
+    s = np.minimum(ra, rb)
+    tol = _TAU_NESTED * s
+    a_in_b = (ra - rb) + D <= tol
+    b_in_a = (rb - ra) + D <= tol
+    # a precedes b in the order: larger radius, or the same radius and a < b (always, a < b)
+    a_first = ra >= rb
+    buried = np.zeros(S, bool)
+    buried[a[a_in_b & ~(b_in_a & a_first)]] = True
+    buried[b[b_in_a & ~(a_in_b & ~a_first)]] = True
+    return buried
+
+
 def _caps(sph: Spheres):
     """Caps cut on each sphere by its overlapping neighbours, and the buried spheres.
 
@@ -64,13 +91,9 @@ def _caps(sph: Spheres):
     S = len(sph.radii)
     a, b, D, e = overlapping_pairs(sph)
     ra, rb = sph.radii[a], sph.radii[b]
-    # containment: D + r_small <= r_big; identical spheres: the later index is buried
-    a_in_b = (D + ra <= rb) & ~((D == 0) & (ra == rb))
-    b_in_a = D + rb <= ra
-    buried = np.zeros(S, bool)
-    buried[a[a_in_b]] = True
-    buried[b[b_in_a]] = True
-    keep = ~(a_in_b | b_in_a) & ~buried[a] & ~buried[b]
+    # containment, scale-aware, with one sphere of each near-identical group kept
+    buried = _buried_spheres(a, b, D, ra, rb, S)
+    keep = ~buried[a] & ~buried[b]
     a, b, D, e, ra, rb = a[keep], b[keep], D[keep], e[keep], ra[keep], rb[keep]
     delta = ra + rb - D  # > 0
     # cap on a (towards b): 1 - h_a = l_a / r_a, 1 + h_a = (r_a + D - r_b)(r_a + D + r_b) / (2 r_a D)
