@@ -20,11 +20,14 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from clumpprops import mass_properties
 
 import _clump_reference as ref
 import reference_slicing as rs
+from _profiles import examples
 
 RHO = 1000.0
 
@@ -232,6 +235,21 @@ def test_near_coincident_pair_class_equals_its_limit():
     assert err_m.max() <= 1e-12, (err_m.max(), c[np.argmax(err_m)], r[np.argmax(err_m)])
     assert err_c.max() <= 1e-12
     assert err_i.max() <= 1e-12, (err_i.max(), c[np.argmax(err_i)], r[np.argmax(err_i)])
+
+
+unit = st.tuples(*[st.floats(-1, 1)] * 3).map(np.array).filter(lambda v: np.linalg.norm(v) > 0.1).map(lambda v: v / np.linalg.norm(v))
+
+
+@settings(max_examples=examples(40))
+@given(st.floats(0.3, 1.0), st.floats(0.3, 1.0), st.floats(13.0, 300.0), unit, unit, st.floats(0.0, 1.0))
+def test_near_coincident_pair_cut_by_a_third_sphere_equals_its_limit(r, f3, log_off, u, w, where):
+    """The issue-10 class as a property (``make test-random`` draws 10^4): limit = dimer, paper's formulas."""
+    r3 = f3 * r
+    d3 = abs(r - r3) + 1e-3 + where * (r + r3 - abs(r - r3) - 2e-3)
+    c = np.array([np.zeros(3), 10.0**-log_off * r * u, d3 * w])
+    rr = np.array([r, r, r3])
+    lim = mass_properties(c[[0, 2]], rr[[0, 2]], RHO, method="pairwise")
+    check(exact(c, rr), lim.mass, lim.center_of_mass, lim.inertia, 1e-12, extent(c, rr))
 
 
 # ------------------------------------------------------------------ spheres through one circle (a pencil)
