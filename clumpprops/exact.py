@@ -44,7 +44,7 @@ _RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (s
 # inside it (see _buried_spheres and docs/exact_method.md, section 2a)
 _TAU_NESTED = 1e-13
 # two cap circles on one unit sphere closer than this everywhere are one circle (see
-# _sphere_surface_moments and docs/exact_method.md, section 2a)
+# _coincident_caps, _uncovered_caps and docs/exact_method.md, section 2a)
 _COINCIDENT = 1e-13
 
 
