@@ -394,7 +394,7 @@ def _grouped(owner, other, per_sphere_cost):
 
 
 def _coincident_caps(n, h, rho):
-    """[c, k, j] bool: circles k and j of one sphere coincide (within _COINCIDENT), and g = n_k.n_j.
+    """[c, k, j] bool: circles k and j of one sphere coincide (within _COINCIDENT); g = n_k.n_j, |n_k x n_j|.
 
     On circle k, f_kj = u.n_j - h_j = m_kj + R_kj cos(t - phi) with m_kj = h_k g - h_j and
     R_kj = rho_k |n_k x n_j|; the circles coincide when |f| <= tol all along both of them,
@@ -406,7 +406,7 @@ def _coincident_caps(n, h, rho):
     sin_kj = np.linalg.norm(np.cross(n[:, :, None, :], n[:, None, :, :]), axis=-1)
     dev = np.abs(h[:, :, None] * g - h[:, None, :]) + rho[:, :, None] * sin_kj
     near = dev <= _COINCIDENT
-    return near & np.swapaxes(near, 1, 2) & ~np.eye(K, dtype=bool)[None], g
+    return near & np.swapaxes(near, 1, 2) & ~np.eye(K, dtype=bool)[None], g, sin_kj
 
 
 def _uncovered_caps(n, h, rho, rank):
@@ -427,13 +427,12 @@ def _uncovered_caps(n, h, rho, rank):
     C, K = h.shape
     if K == 1:
         return np.ones(h.shape, bool), np.zeros(C, bool)
-    coincident, g = _coincident_caps(n, h, rho)
+    coincident, g, sin_kj = _coincident_caps(n, h, rho)
     covered_all = np.any(coincident & (g < 0), axis=(1, 2))
     lower = rank[:, None, :] < rank[:, :, None]  # [c, k, j]: j ranks before k
     keep = ~np.any(coincident & (g > 0) & lower, axis=2)
     alpha = np.arctan2(rho, h)
-    cross = np.cross(n[:, :, None, :], n[:, None, :, :])
-    theta = np.arctan2(np.linalg.norm(cross, axis=-1), g)
+    theta = np.arctan2(sin_kj, g)
     inside = theta + alpha[:, :, None] <= alpha[:, None, :]  # [c, j, k]: cap j within cap k
     inside &= ~coincident & keep[:, None, :] & ~np.eye(K, dtype=bool)[None]
     keep &= ~np.any(inside, axis=2)
