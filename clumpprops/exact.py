@@ -116,8 +116,9 @@ def _caps(sph: Spheres):
     other = np.concatenate([b, a])
     # Near-tangent pairs (rim circle radius < _RHO_TANGENT of both spheres; round-off near
     # a tangency makes circles of radius ~sqrt(eps)): treat as tangent.  Externally: no
-    # caps; internally: the inner sphere is buried.  The change in every moment is below
-    # the lens volume, ~ pi/4 rho^4 r^3 < 1e-24 r^3.
+    # caps; internally: the inner sphere is buried.  Decided once per pair, for both
+    # spheres.  The change is the lens volume, ~ pi/4 rho^4 r^3 < 1e-24 r^3, when no third
+    # sphere meets the lens (otherwise see docs/exact_method.md, section 2a, rule T).
     P = len(a)
     tiny = np.maximum(rho[:P], rho[P:]) < _RHO_TANGENT
     if np.any(tiny):
