@@ -57,6 +57,7 @@ __all__ = [
     "correct_all_clumps",
     "replace_by_clumps",
     "text_clumps",
+    "export_text_clumps",
     "correction_id",
     "sphere_member_ids",
     "is_correction",
@@ -756,6 +757,35 @@ def text_clumps(fileName, shift=None, discretization=0, orientation=None, scale=
     for cid, mids in ret:
         Y.O.bodies[cid].mask = Y.O.bodies[mids[0]].mask
     return ret
+
+
+def export_text_clumps(filename, comment="", mask=-1):
+    """``export.textClumps`` that can be read back: ids as integers, coordinates to the last bit.
+
+    YADE's writer uses ``%g``: 6 significant digits for positions and radii, and ids >= 10**6 in
+    exponent form (``1.23457e+06``), rounded, so neighbouring clumps can merge and
+    ``ymport.textClumps`` cannot read the file.  This writes the same format
+    (``#format x_y_z_r_clumpId``, one sphere member per line, correction members skipped) with
+    ``%.17g`` and ``%d``.  Returns ``(number of clumps, number of spheres)`` like YADE's.
+    """
+    Y = _Y.load()
+    out = ["#format x_y_z_r_clumpId\n"]
+    if comment:
+        out.append("# " + comment + "\n")
+    n_clumps = n = 0
+    for b in Y.O.bodies:
+        if b is None or not b.isClump:
+            continue
+        n_clumps += 1
+        for mid in b.shape.members.keys():
+            m = Y.O.bodies[int(mid)]
+            if m is not None and isinstance(m.shape, Y.Sphere) and (mask < 0 or (mask & m.mask) > 0):
+                p = m.state.pos
+                out.append(f"{float(p[0])!r}\t{float(p[1])!r}\t{float(p[2])!r}\t{float(m.shape.radius)!r}\t{b.id:d}\n")
+                n += 1
+    with open(filename, "w") as f:
+        f.write("".join(out))
+    return n_clumps, n
 
 
 # --------------------------------------------------------------------------- the clump's life: release, add, erase, update

@@ -368,11 +368,12 @@ def _big_file(path, n_lines):
     rng = np.random.default_rng(0)
     x = rng.uniform(0, 10, (block, 3))
     r = rng.uniform(0.01, 0.05, block)
+    prefix = [f"{a:g}\t{c:g}\t{d:g}\t{e:g}\t" for (a, c, d), e in zip(x.tolist(), r.tolist())]
     with open(path, "w") as f:
         f.write("#format x_y_z_r_clumpId\n")
         for b in range(n_lines // block):
-            ids = (np.arange(block) + b * block) // 2
-            f.write("".join(f"{a:g}\t{c:g}\t{d:g}\t{e:g}\t{i}\n" for (a, c, d), e, i in zip(x.tolist(), r.tolist(), ids.tolist())))
+            ids = map(str, range(b * block // 2, (b + 1) * block // 2))
+            f.write("".join(f"{p0}{i}\n{p1}{i}\n" for p0, p1, i in zip(prefix[::2], prefix[1::2], ids)))
 
 
 PARSE_BIG = """
