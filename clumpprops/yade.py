@@ -1,6 +1,6 @@
 """YADE adapter: clumps that carry the exact mass properties from the moment they are built.
 
-YADE (2023.02a) builds a clump's mass, centre of mass and inertia by summing its
+YADE (2023.02a, 2025.2) builds a clump's mass, centre of mass and inertia by summing its
 member spheres (``discretization=0``: overlaps counted twice) or by voxelising
 them (``discretization>0``: approximate and slow).  This module swaps one call
 for the YADE one and the clump in the simulation has the properties
@@ -20,6 +20,9 @@ Its state holds exactly the difference "exact minus summed spheres":
 * principal moments and orientation such that the summed inertia tensor about the
   exact centre of mass equals the exact tensor (eigenvalues may be negative).
 
+Its state is ``material.newAssocState()`` of the spheres' material (CpmState for CpmMat, ...)
+and its ``mask`` the bits common to all its spheres.
+
 YADE then computes mass, centre of mass, principal moments and axes itself, so the
 correction is part of the scene: it is saved by ``O.save``/``O.saveTmp``, and a
 later ``O.bodies.updateClumpProperties(discretization=0)`` reproduces the exact
@@ -28,10 +31,14 @@ radius and world position.  Forces applied per member through the body's mass
 (``GravityEngine``) act on the correction member too, so the clump receives the
 exact weight ``m_exact g`` through the exact centre of mass.
 
-Limits (YADE's, documented in docs/yade_adapter.md): ``updateClumpProperties``
-with ``discretization > 0`` (its default is 5!) voxelises the spheres only and
-ignores the correction; call :func:`correct_all_clumps` (or
-``updateClumpProperties(discretization=0)``) afterwards to restore the exact values.
+The clump's life (docs/yade_adapter.md has the table): YADE's own release, add, erase and
+update recompute a clump with whatever members it then has, so the correction would go stale
+(or the summed mass reach zero and YADE abort).  :func:`release`, :func:`add_to_clump`,
+:func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
+operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
+are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
+correction is recorded in ``O.tags["clumpprops.corrections"]`` with a fingerprint of its spheres,
+and :func:`check` verifies the whole scene.
 
 Nothing here is imported by ``import clumpprops``; YADE itself is imported inside
 the functions, so this module works both in scripts run by the ``yade``
