@@ -17,8 +17,13 @@ run: setup
 paper: setup
 	OMP_NUM_THREADS=1 $(PY) -m studies.granular_gas run --scale paper
 # the test suite on both YADE versions: natively (Debian 12, YADE 2023.02a), then inside the
-# Debian 13 root (YADE 2025.2; built on first use, ~8 min, reused afterwards)
-test: test-native test-debian13
+# Debian 13 root (YADE 2025.2; built on first use, ~8 min, reused afterwards); both run even
+# if the first fails, and the target fails if either does
+test:
+	@status=0; \
+	$(MAKE) --no-print-directory test-native || status=1; \
+	$(MAKE) --no-print-directory test-debian13 || status=1; \
+	exit $$status
 test-native: setup
 	OMP_NUM_THREADS=1 $(PY) -m pytest $(PYTEST_ARGS) tests
 setup-debian13:
