@@ -144,12 +144,16 @@ def normalize(centers, radii) -> Spheres:
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     # origin: volume-weighted mean of sphere centres, accumulated relative to the first
     # sphere so that the sum involves only small numbers
-    r3 = r_all * r_all * r_all
+    # radii ~1e103 and up overflow r^3 here: the result is then non-finite and the assembly raises
+    # its documented "moments overflow float64" ValueError, without numpy warnings on the way
+    with np.errstate(over="ignore", invalid="ignore"):
+        r3 = r_all * r_all * r_all
     if N:
         c3 = c_all.reshape(M, N, 3)
         first = c3[:, 0, :]
         w = r3.reshape(M, N)
-        w = w / _rowsum(w)[:, None]
+        with np.errstate(over="ignore", invalid="ignore"):
+            w = w / _rowsum(w)[:, None]
         origin = first + _rowsum(w[:, :, None] * (c3 - first[:, None, :]))
         rel = (c3 - origin[:, None, :]).reshape(-1, 3)
         clump = np.repeat(np.arange(M), N)

@@ -28,7 +28,7 @@ import io
 import json
 import math
 import sys
-from typing import List, Optional, Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from .textclumps import TextClump, TextClumpsError, read_text_clumps
 DEFAULT_DENSITY = 1000.0  # kg/m^3, YADE's default material density
 
 PROG = "clumpprops"
+MAX_WARNINGS = 5  # repeated-id warnings printed before a count
 
 
 class CLIError(Exception):
@@ -133,13 +134,19 @@ def _method_options(args, parser) -> dict:
 
 
 def _describe(clump: TextClump) -> str:
-    lo, hi = clump.lines[0], clump.lines[-1]
+    lo, hi = clump.first_line, clump.last_line
     where = f"line {lo}" if lo == hi else f"lines {lo}-{hi}"
     return f"clump id {clump.clump_id} ({where})"
 
 
-def compute(clumps: List[TextClump], method: str, density: float, options: dict):
-    """Library results for the method and for the summed spheres, as batches over the clumps."""
+def compute(clumps: Sequence[TextClump], method: str, density: float, options: dict):
+    """Library results for the method and for the summed spheres, as batches over the clumps.
+
+    The library's documented errors become :class:`CLIError` (one line, exit status 1):
+    ``ClumpGeometryError`` (a method that cannot handle the geometry; the clump and its lines
+    are named) and ``ValueError`` for input it rejects (e.g. moments that overflow float64).
+    Anything else is a bug and propagates with its traceback.
+    """
     centers = [c.centers for c in clumps]
     radii = [c.radii for c in clumps]
     try:
@@ -152,15 +159,13 @@ def compute(clumps: List[TextClump], method: str, density: float, options: dict)
             except ClumpGeometryError as one:
                 raise CLIError(f"{_describe(c)}: {one}") from None
         raise CLIError(str(exc)) from None
-    summed = mass_properties(centers, radii, density=density, method="sum")
-    return mp, summed
-
-
-def _compute(clumps, method, density, options):
+    except ValueError as exc:  # the library's documented input error
+        raise CLIError(str(exc)) from None
     try:
-        return compute(clumps, method, density, options)
-    except ImportError as exc:  # a method whose module is missing from this installation
-        raise CLIError(f"method {method!r} is not available in this installation ({exc})") from None
+        summed = mass_properties(centers, radii, density=density, method="sum")
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+    return mp, summed
 
 
 def _rows(clumps, mp, summed):
@@ -237,7 +242,7 @@ def format_csv(clumps, mp, summed, args) -> str:
 def format_json(clumps, mp, summed, args) -> str:
     items = []
     for i, r in _rows(clumps, mp, summed):
-        r["first_line"], r["last_line"] = clumps[i].lines[0], clumps[i].lines[-1]
+        r["first_line"], r["last_line"] = clumps[i].first_line, clumps[i].last_line
         r["inertia"] = np.asarray(mp.inertia[i]).tolist()
         r["principal_axes"] = np.asarray(mp.principal_axes[i]).tolist()
         r["mass_sum_of_spheres"] = float(summed.mass[i])
@@ -276,23 +281,26 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     options = _method_options(args, parser)
     try:
         clumps = read_text_clumps(args.file, scale=args.scale)
-        for c in clumps:
-            if c.repeated_id:
-                print(
-                    f"{PROG}: warning: {args.file}:{c.lines[0]}: clump id {c.clump_id} appears again after "
-                    "other clumps; like YADE's ymport.textClumps this starts a new clump",
-                    file=sys.stderr,
-                )
-        mp, summed = _compute(clumps, args.method, args.density, options)
-        text = FORMATTERS[args.format](clumps, mp, summed, args)
-    except CLIError as exc:
-        return _fail(str(exc))
-    except TextClumpsError as exc:
+    except TextClumpsError as exc:  # malformed file: names the line
         return _fail(str(exc))
     except OSError as exc:
         return _fail(f"cannot read {args.file}: {exc.strerror or exc}")
-    except ValueError as exc:  # library input validation
+    repeated = np.flatnonzero(clumps.repeated)
+    for k in repeated[:MAX_WARNINGS]:
+        c = clumps[int(k)]
+        print(
+            f"{PROG}: warning: {args.file}:{c.first_line}: clump id {c.clump_id} appears again after "
+            "other clumps; like YADE's ymport.textClumps this starts a new clump",
+            file=sys.stderr,
+        )
+    if len(repeated) > MAX_WARNINGS:
+        print(f"{PROG}: warning: ... and {len(repeated) - MAX_WARNINGS} more clump ids that appear again", file=sys.stderr)
+    try:
+        mp, summed = compute(clumps, args.method, args.density, options)
+    except CLIError as exc:
         return _fail(str(exc))
+    # no except around the formatting: an exception there is a bug and shows its traceback
+    text = FORMATTERS[args.format](clumps, mp, summed, args)
     try:
         sys.stdout.write(text)
         sys.stdout.flush()

@@ -22,23 +22,33 @@ blank lines are skipped (YADE stops with an IndexError); a short line, a word
 that is not a number, a non-finite value, a radius <= 0 or a non-integer
 ``clumpId`` raise :class:`TextClumpsError` with the line number (YADE raises a bare
 ``ValueError`` or silently builds a broken clump).  ``clumpId`` is parsed with
-Python's ``int()`` exactly as YADE does, so ``3.0`` or ``1.23457e+06`` are
-rejected (``export.textClumps`` writes ids with ``%g``, which turns ids >= 10**6
-into such strings and can merge neighbouring clumps: renumber them first).
+Python's ``int()`` exactly as YADE does, so ``3.0`` is rejected.  Ids >= 10**6 written
+as plain integers are fine.  ``export.textClumps`` writes ids with ``%g``, which turns
+ids >= 10**6 into exponent form rounded to 6 significant digits (``1234567`` becomes
+``1.23457e+06``, ``1234568`` too), so neighbouring clumps can merge: such ids are
+refused with a message saying so (``ymport.textClumps`` cannot read them either);
+write the file with integer ids (``clumpprops.yade.export_text_clumps``).
 
 ``scale`` and ``shift`` behave as in ``ymport.textClumps``: position
 ``shift + scale * (x, y, z)``, radius ``scale * r``.
+
+Large files: lines are read one at a time into flat typed arrays (40 bytes per sphere);
+the clumps returned are light views into those arrays, so a file of 10**6 lines parses
+in about a second and never holds more than the arrays and one line of text.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import sys
-from dataclasses import dataclass
-from typing import Iterable, List, Optional, Sequence
+import warnings
+from array import array
+from collections import abc
+from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-__all__ = ["TextClump", "TextClumpsError", "parse_text_clumps", "read_text_clumps"]
+__all__ = ["TextClump", "TextClumps", "TextClumpsError", "parse_text_clumps", "read_text_clumps"]
 
 
 class TextClumpsError(ValueError):
@@ -52,27 +62,112 @@ class TextClumpsError(ValueError):
         super().__init__(where + message)
 
 
-@dataclass(frozen=True)
 class TextClump:
-    """One clump read from the file.
+    """One clump read from the file (a view into the parsed arrays).
 
     ``clump_id`` the file's integer id; ``centers`` (N, 3) m and ``radii`` (N,) m after
-    ``scale``/``shift``; ``lines`` (N,) the 1-based line number of each sphere;
+    ``scale``/``shift``; ``lines`` (N,) the 1-based line number of each sphere (a tuple);
     ``repeated_id`` True if the same id already labelled an earlier, separate clump.
     """
 
-    clump_id: int
-    centers: np.ndarray
-    radii: np.ndarray
-    lines: tuple
-    repeated_id: bool = False
+    __slots__ = ("_owner", "_a", "_b", "clump_id", "repeated_id")
+
+    def __init__(self, owner, a, b, clump_id, repeated_id):
+        self._owner, self._a, self._b = owner, a, b
+        self.clump_id = clump_id
+        self.repeated_id = repeated_id
+
+    @property
+    def centers(self) -> np.ndarray:
+        return self._owner.centers[self._a:self._b]
+
+    @property
+    def radii(self) -> np.ndarray:
+        return self._owner.radii[self._a:self._b]
+
+    @property
+    def lines(self) -> tuple:
+        return tuple(self._owner.lines[self._a:self._b].tolist())
+
+    @property
+    def first_line(self) -> int:
+        return int(self._owner.lines[self._a])
+
+    @property
+    def last_line(self) -> int:
+        return int(self._owner.lines[self._b - 1])
 
     @property
     def n_spheres(self) -> int:
-        return len(self.radii)
+        return self._b - self._a
+
+    def __repr__(self):
+        return f"TextClump(clump_id={self.clump_id}, n_spheres={self.n_spheres}, lines {self.first_line}-{self.last_line})"
+
+
+class TextClumps(abc.Sequence):
+    """The clumps of a file: a read-only sequence of :class:`TextClump`, backed by flat arrays.
+
+    ``centers`` (S, 3), ``radii`` (S,), ``lines`` (S,) for all S spheres in file order;
+    ``starts`` (M + 1,) the first sphere of each clump (and S); ``ids`` (M,) the clump ids;
+    ``repeated`` (M,) bool.
+    """
+
+    def __init__(self, centers, radii, lines, starts, ids, repeated):
+        self.centers, self.radii, self.lines = centers, radii, lines
+        self.starts, self.ids, self.repeated = starts, ids, repeated
+        for a in (centers, radii, lines, starts, ids, repeated):
+            a.flags.writeable = False
+
+    def __len__(self):
+        return len(self.ids)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        n = len(self)
+        if k < 0:
+            k += n
+        if not 0 <= k < n:
+            raise IndexError("clump index out of range")
+        return TextClump(self, int(self.starts[k]), int(self.starts[k + 1]), int(self.ids[k]), bool(self.repeated[k]))
 
 
 _COLUMNS = ("x", "y", "z", "r")
+_ID_MAX = 2**63 - 1
+
+
+def _id_error(word: str) -> str:
+    try:
+        v = float(word)
+    except ValueError:
+        return f"clumpId must be an integer, got {word!r}"
+    if math.isfinite(v) and v == int(v) and "e" in word.lower():
+        return (
+            f"clumpId {word!r} is in exponent form: YADE's export.textClumps writes ids with %g, which rounds "
+            "ids >= 10**6 to 6 significant digits (1234567 and 1234568 both become '1.23457e+06'), so "
+            "neighbouring clumps may merge; ymport.textClumps cannot read it either. Write the file with "
+            "integer ids (clumpprops.yade.export_text_clumps) or renumber the clumps below 10**6"
+        )
+    return f"clumpId must be an integer, got {word!r}"
+
+
+def _first_bad_value(vals: np.ndarray, lines, source):
+    """Raise for the first row (x, y, z, r) that is not finite or has r <= 0, if any."""
+    if len(vals) == 0:
+        return
+    a = vals.reshape(-1, 4)
+    bad = ~np.isfinite(a)
+    bad_r = ~(a[:, 3] > 0)
+    rows = np.flatnonzero(bad.any(axis=1) | bad_r)
+    if len(rows) == 0:
+        return
+    i = int(rows[0])
+    lineno = int(lines[i])
+    for k in range(4):
+        if bad[i, k]:
+            raise TextClumpsError(f"{_COLUMNS[k]} is not finite: {a[i, k]!r}", source, lineno)
+    raise TextClumpsError(f"radius must be > 0 (m), got {a[i, 3]!r}", source, lineno)
 
 
 def parse_text_clumps(
@@ -80,11 +175,11 @@ def parse_text_clumps(
     source: str = "<text>",
     scale: float = 1.0,
     shift: Sequence[float] = (0.0, 0.0, 0.0),
-) -> List[TextClump]:
-    """Parse textClumps lines (see the module docstring) into a list of :class:`TextClump`.
+) -> TextClumps:
+    """Parse textClumps lines (see the module docstring) into a sequence of :class:`TextClump`.
 
     ``source`` names the input in error messages.  Raises :class:`TextClumpsError`
-    for malformed lines and for input without any sphere.
+    for malformed lines (the first one in file order) and for input without any sphere.
     """
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
@@ -93,27 +188,71 @@ def parse_text_clumps(
     if shift.shape != (3,) or not np.all(np.isfinite(shift)):
         raise TextClumpsError(f"shift must be 3 finite numbers, got {shift.tolist()!r}", source)
 
-    clumps: List[TextClump] = []
-    seen = set()
-    cur_id = None
-    cur_rows: list = []
-    cur_lines: list = []
+    vals = array("d")  # x, y, z, r per sphere
+    ids = array("q")
+    lns = array("q")
+    it = iter(lines)
+    lineno = 0
+    try:
+        while True:
+            chunk = list(itertools.islice(it, _CHUNK))
+            if not chunk:
+                break
+            if not _fast_chunk(chunk, lineno, vals, ids, lns):
+                _slow_chunk(chunk, lineno, vals, ids, lns, source)
+            lineno += len(chunk)
+    except TextClumpsError:
+        # an earlier line may hold a non-finite value or a bad radius: report the first error in the file
+        _first_bad_value(np.frombuffer(vals, dtype=np.float64), np.frombuffer(lns, dtype=np.int64), source)
+        raise
+    a = np.frombuffer(vals, dtype=np.float64).reshape(-1, 4)
+    line_arr = np.frombuffer(lns, dtype=np.int64)
+    _first_bad_value(a.ravel(), line_arr, source)
+    if len(a) == 0:
+        raise TextClumpsError("no spheres found (expected lines 'x y z r clumpId')", source)
+    id_arr = np.frombuffer(ids, dtype=np.int64)
+    starts = np.concatenate(([0], np.flatnonzero(id_arr[1:] != id_arr[:-1]) + 1, [len(id_arr)]))
+    clump_ids = id_arr[starts[:-1]]
+    _, first, inverse = np.unique(clump_ids, return_index=True, return_inverse=True)
+    repeated = first[inverse] != np.arange(len(clump_ids))
+    centers = a[:, :3] * scale + shift if (scale != 1.0 or np.any(shift)) else a[:, :3].copy()
+    radii = a[:, 3] * scale if scale != 1.0 else a[:, 3].copy()
+    return TextClumps(centers, radii, line_arr.copy(), starts, clump_ids.copy(), repeated)
 
-    def flush():
-        if cur_rows:
-            a = np.array(cur_rows, dtype=np.float64)
-            clumps.append(
-                TextClump(
-                    clump_id=cur_id,
-                    centers=shift + scale * a[:, :3],
-                    radii=scale * a[:, 3],
-                    lines=tuple(cur_lines),
-                    repeated_id=cur_id in seen,
-                )
-            )
-            seen.add(cur_id)
 
-    for lineno, line in enumerate(lines, start=1):
+_CHUNK = 1 << 16  # lines per block: bounded memory for the text, whatever the file size
+_ROW = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("r", "f8"), ("id", "U32")])
+
+
+def _fast_chunk(chunk, offset, vals, ids, lns) -> bool:
+    """Parse a block of lines with numpy's C reader; False (nothing appended) if any line needs the
+    careful Python path (an error to report, or a form numpy reads differently from ``float``/``int``)."""
+    keep = [i for i, line in enumerate(chunk) if line.lstrip()[:1] not in ("#", "")]
+    if not keep:
+        return True
+    data = chunk if len(keep) == len(chunk) else [chunk[i] for i in keep]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            rows = np.loadtxt(data, dtype=_ROW, usecols=range(5), comments=None, ndmin=1)
+            cid = rows["id"].astype(np.int64)  # int() per id: '3.0' and '1e+06' fail as in YADE
+    except Exception:  # noqa: BLE001  (any doubt: the Python path decides, with the line number)
+        return False
+    if len(rows) != len(keep):
+        return False
+    four = np.empty((len(rows), 4))
+    for k, name in enumerate(_COLUMNS):
+        four[:, k] = rows[name]
+    vals.frombytes(four.tobytes())
+    ids.frombytes(cid.tobytes())
+    lns.frombytes((np.asarray(keep, dtype=np.int64) + offset + 1).tobytes())
+    return True
+
+
+def _slow_chunk(chunk, offset, vals, ids, lns, source):
+    """The reference parser, one line at a time (YADE's rules; first error raised with its line)."""
+    extend, add_id, add_line = vals.extend, ids.append, lns.append
+    for lineno, line in enumerate(chunk, start=offset + 1):
         data = line.split()
         if not data or data[0][0] == "#":
             continue
@@ -121,33 +260,32 @@ def parse_text_clumps(
             raise TextClumpsError(
                 f"expected 5 columns 'x y z r clumpId', got {len(data)}: {line.strip()!r}", source, lineno
             )
-        row = []
-        for name, word in zip(_COLUMNS, data[:4]):
-            try:
-                v = float(word)
-            except ValueError:
-                raise TextClumpsError(f"{name} is not a number: {word!r}", source, lineno) from None
-            if not math.isfinite(v):
-                raise TextClumpsError(f"{name} is not finite: {word!r}", source, lineno)
-            row.append(v)
-        if row[3] <= 0:
-            raise TextClumpsError(f"radius must be > 0 (m), got {data[3]!r}", source, lineno)
+        try:
+            extend((float(data[0]), float(data[1]), float(data[2]), float(data[3])))
+        except ValueError:
+            k = next(k for k in range(4) if not _is_float(data[k]))
+            raise TextClumpsError(f"{_COLUMNS[k]} is not a number: {data[k]!r}", source, lineno) from None
         try:
             cid = int(data[4])
         except ValueError:
-            raise TextClumpsError(f"clumpId must be an integer, got {data[4]!r}", source, lineno) from None
-        if cid != cur_id:
-            flush()
-            cur_id, cur_rows, cur_lines = cid, [], []
-        cur_rows.append(row)
-        cur_lines.append(lineno)
-    flush()
-    if not clumps:
-        raise TextClumpsError("no spheres found (expected lines 'x y z r clumpId')", source)
-    return clumps
+            del vals[-4:]
+            raise TextClumpsError(_id_error(data[4]), source, lineno) from None
+        if not -_ID_MAX <= cid <= _ID_MAX:
+            del vals[-4:]
+            raise TextClumpsError(f"clumpId {data[4]!r} is out of range (|id| < 2**63)", source, lineno)
+        add_id(cid)
+        add_line(lineno)
 
 
-def read_text_clumps(path, scale: float = 1.0, shift: Sequence[float] = (0.0, 0.0, 0.0)) -> List[TextClump]:
+def _is_float(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
+def read_text_clumps(path, scale: float = 1.0, shift: Sequence[float] = (0.0, 0.0, 0.0)) -> TextClumps:
     """Read a textClumps file (``path``, or ``"-"`` for standard input); see :func:`parse_text_clumps`.
 
     Raises ``OSError`` if the file cannot be read and :class:`TextClumpsError` if it is malformed.

@@ -1,6 +1,6 @@
 """YADE adapter: clumps that carry the exact mass properties from the moment they are built.
 
-YADE (2023.02a) builds a clump's mass, centre of mass and inertia by summing its
+YADE (2023.02a, 2025.2) builds a clump's mass, centre of mass and inertia by summing its
 member spheres (``discretization=0``: overlaps counted twice) or by voxelising
 them (``discretization>0``: approximate and slow).  This module swaps one call
 for the YADE one and the clump in the simulation has the properties
@@ -20,6 +20,9 @@ Its state holds exactly the difference "exact minus summed spheres":
 * principal moments and orientation such that the summed inertia tensor about the
   exact centre of mass equals the exact tensor (eigenvalues may be negative).
 
+Its state is ``material.newAssocState()`` of the spheres' material (CpmState for CpmMat, ...)
+and its ``mask`` the bits common to all its spheres.
+
 YADE then computes mass, centre of mass, principal moments and axes itself, so the
 correction is part of the scene: it is saved by ``O.save``/``O.saveTmp``, and a
 later ``O.bodies.updateClumpProperties(discretization=0)`` reproduces the exact
@@ -28,10 +31,14 @@ radius and world position.  Forces applied per member through the body's mass
 (``GravityEngine``) act on the correction member too, so the clump receives the
 exact weight ``m_exact g`` through the exact centre of mass.
 
-Limits (YADE's, documented in docs/yade_adapter.md): ``updateClumpProperties``
-with ``discretization > 0`` (its default is 5!) voxelises the spheres only and
-ignores the correction; call :func:`correct_all_clumps` (or
-``updateClumpProperties(discretization=0)``) afterwards to restore the exact values.
+The clump's life (docs/yade_adapter.md has the table): YADE's own release, add, erase and
+update recompute a clump with whatever members it then has, so the correction would go stale
+(or the summed mass reach zero and YADE abort).  :func:`release`, :func:`add_to_clump`,
+:func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
+operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
+are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
+correction is recorded in ``O.tags["clumpprops.corrections"]`` with a fingerprint of its spheres,
+and :func:`check` verifies the whole scene.
 
 Nothing here is imported by ``import clumpprops``; YADE itself is imported inside
 the functions, so this module works both in scripts run by the ``yade``
@@ -39,7 +46,11 @@ executable and after a plain ``import yade``.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import math
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,12 +64,20 @@ __all__ = [
     "correct_all_clumps",
     "replace_by_clumps",
     "text_clumps",
+    "export_text_clumps",
     "correction_id",
     "sphere_member_ids",
     "is_correction",
     "exact_properties",
     "clump_errors",
     "set_clump_velocity",
+    "release",
+    "add_to_clump",
+    "erase",
+    "update_clump_properties",
+    "check",
+    "CheckReport",
+    "unguarded",
     "ClumpAdapterError",
 ]
 
@@ -94,6 +113,7 @@ class _Y:
             cls.Quaternion = Quaternion
             cls.Matrix3 = Matrix3
             cls._loaded = True
+            _install_guards(cls)
         return cls
 
 
@@ -137,7 +157,7 @@ def _pax(d):
     return P
 
 
-def correction_terms(centers, radii, densities, mass, com, inertia):
+def correction_terms(centers, radii, densities, mass, com, inertia, strict=True):
     """State of the correction members of a batch of clumps (pure numpy).
 
     centers: list of (N_m, 3) world positions of the member spheres; radii: list of (N_m,);
@@ -149,6 +169,15 @@ def correction_terms(centers, radii, densities, mass, com, inertia):
     way ``Clump::updateProperties`` sums them, to the target.  All sums are taken about the
     target centre of mass, so nothing is lost to cancellation however far the clump is from
     the origin.
+
+    The correction's offset cancels the spheres' first moment: ``m_c * offset = -S``.  Where
+    ``|m_c| * reach`` is below the round-off of ``S`` (no real overlap: touching or separate
+    spheres, one sphere) the offset is 0, which moves the centre of mass by round-off only.
+    ``strict`` (the exact methods: "exact", "pairwise", "sum"): the target must be a union of
+    the spheres, so the excess "summed minus union" is a non-negative distribution inside the
+    clump: ``m_c <= 0`` and ``|offset| <=`` the clump's reach about its centre of mass.  A
+    target that breaks either is a library error and raises :class:`ClumpAdapterError`
+    naming the clump (index in the batch); nothing is clamped.
     """
     M = len(centers)
     counts = np.array([len(r) for r in radii])
@@ -165,19 +194,33 @@ def correction_terms(centers, radii, densities, mass, com, inertia):
     S = np.add.reduceat(m_i[:, None] * d, starts, axis=0)  # first moment of the spheres about the COM
     I_s = np.add.reduceat(m_i[:, None, None] * _pax(d) + j_i[:, None, None] * np.eye(3), starts, axis=0)
     m_c = mass - m_s
-    # the correction's offset from the COM cancels the spheres' first moment: m_c * off = -S.
-    # In exact arithmetic the excess ("summed minus union") is a non-negative distribution
-    # inside the clump, so |off| <= the clump's radius about its COM; where round-off
-    # dominates (no real overlap, m_c ~ 1e-16 m) clamp to that radius.
-    reach = np.maximum.reduceat(np.linalg.norm(d, axis=1) + r, starts)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        off = -S / m_c[:, None]
-    norm = np.linalg.norm(off, axis=1)
-    bad = ~np.isfinite(norm) | (norm > reach)
-    if np.any(bad):
-        scale = np.where(np.isfinite(norm) & (norm > 0), reach / np.where(norm > 0, norm, 1.0), 0.0)
-        off[bad] = off[bad] * scale[bad, None]
-        off[~np.isfinite(off)] = 0.0
+    dist = np.linalg.norm(d, axis=1) + r
+    reach = np.maximum.reduceat(dist, starts)
+    # round-off of S (and of m_c * offset): a few ulps of sum m_i (|d_i| + r_i)
+    eps = np.finfo(float).eps
+    s_noise = 64.0 * eps * np.add.reduceat(m_i * dist, starts)
+    m_noise = 64.0 * eps * m_s
+    roundoff = np.abs(m_c) * reach <= s_noise
+    safe = np.where(roundoff, 1.0, m_c)
+    off = np.where(roundoff[:, None], 0.0, -S / safe[:, None])
+    if strict:
+        heavy = m_c > m_noise
+        if np.any(heavy):
+            k = int(np.flatnonzero(heavy)[0])
+            raise ClumpAdapterError(
+                f"clump {k} of the batch: target mass {mass[k]!r} exceeds the summed spheres' {m_s[k]!r}; "
+                "the union of the spheres cannot be heavier (library error)"
+            )
+        norm = np.linalg.norm(off, axis=1)
+        tol = reach * 1e-9 + s_noise / np.where(roundoff, 1.0, np.abs(m_c))
+        outside = ~roundoff & (norm > reach + tol)
+        if np.any(outside):
+            k = int(np.flatnonzero(outside)[0])
+            raise ClumpAdapterError(
+                f"clump {k} of the batch: the correction's centroid would lie {norm[k]:.6g} m from the centre of "
+                f"mass, outside the clump (reach {reach[k]:.6g} m); the target centre of mass is inconsistent "
+                "with the spheres (library error)"
+            )
     J = inertia - I_s - m_c[:, None, None] * _pax(off)
     J = 0.5 * (J + np.swapaxes(J, 1, 2))
     w, V = np.linalg.eigh(J)
@@ -276,20 +319,109 @@ def _batch_properties(xs, rs, rhos, method):
     return mass, com, inertia
 
 
-def _make_correction(Y, material, mask, m, p, w, V):
+def _common_mask(spheres):
+    """Bitwise AND of the spheres' masks: an engine selecting bodies by mask (GravityEngine(mask=M))
+    selects the correction exactly when a bit of M is shared by every sphere of the clump."""
+    m = -1
+    for b in spheres:
+        m &= int(b.mask)
+    return m
+
+
+def _new_correction(Y, spheres):
+    """A correction body for a clump of ``spheres``: bare ``Shape``, unbounded, the spheres' material
+    with the state class that material expects (``material.newAssocState()``: CpmState for CpmMat,
+    JCFpmState for JCFpmMat, ...), the spheres' common mask.  Its mass properties are set later."""
+    mat = spheres[0].material
     b = Y.Body()
     b.shape = Y.Shape()
-    b.material = material
+    b.material = mat
+    b.state = mat.newAssocState()
     b.bounded = False
-    b.mask = mask  # engines that select bodies by mask (GravityEngine) must see it like the spheres
-    st = b.state
-    st.mass = float(m)
-    st.pos = Y.Vector3(float(p[0]), float(p[1]), float(p[2]))
-    st.inertia = Y.Vector3(float(w[0]), float(w[1]), float(w[2]))
-    # Clump::updateProperties adds R^T diag(w) R with R = ori.toRotationMatrix(); we want V diag(w) V^T
-    st.ori = Y.Quaternion(Y.Matrix3(*[float(a) for a in V.T.ravel()]))
-    st.ori.normalize()
+    b.mask = _common_mask(spheres)
     return b
+
+
+def _set_correction_state(Y, st, m, p, w, V):
+    V3 = Y.Vector3
+    st.mass = float(m)
+    st.pos = V3(float(p[0]), float(p[1]), float(p[2]))
+    st.inertia = V3(float(w[0]), float(w[1]), float(w[2]))
+    # Clump::updateProperties adds R^T diag(w) R with R = ori.toRotationMatrix(); we want V diag(w) V^T
+    q = Y.Quaternion(Y.Matrix3(*[float(a) for a in np.asarray(V).T.ravel()]))
+    q.normalize()
+    st.ori = q
+
+
+def _neutralize(Y, corr):
+    """Zero mass and inertia: YADE's next update of the clump sums its spheres only (positive mass,
+    never the `M > 0` abort), whatever members it gains or loses."""
+    if corr is not None:
+        st = corr.state
+        st.mass = 0.0
+        st.inertia = Y.Vector3(0.0, 0.0, 0.0)
+
+
+# --------------------------------------------------------------------------- registry (saved with the scene)
+
+_TAG = "clumpprops.corrections"
+_STRICT = ("exact", "pairwise", "sum")
+class _Registry(dict):
+    """{clump id: (correction id, fingerprint, method)} that keeps each entry's line of text, so
+    that writing it back to ``O.tags`` costs one join (no sorting, no reformatting)."""
+
+    def __init__(self):
+        super().__init__()
+        self.lines = {}
+        self.dirty = False
+
+    def __setitem__(self, cid, rec):
+        super().__setitem__(cid, rec)
+        self.lines[cid] = f"{cid} {rec[0]} {rec[1]} {rec[2]}\n"
+        self.dirty = True
+
+    def pop(self, cid, *default):
+        self.lines.pop(cid, None)
+        self.dirty = True
+        return super().pop(cid, *default)
+
+
+_cache = {"text": None, "reg": _Registry()}
+
+
+def _registry():
+    """The scene's registry, parsed from ``O.tags`` (cached while the tag is unchanged).
+
+    Returns the cached object itself: mutate it and call :func:`_save_registry`."""
+    Y = _Y.load()
+    tags = Y.O.tags
+    text = tags[_TAG] if _TAG in tags.keys() else ""
+    reg = _cache["reg"]
+    if text != _cache["text"] or reg.dirty:
+        reg = _Registry()
+        for line in text.splitlines():
+            f = line.split()
+            if len(f) == 4:
+                reg[int(f[0])] = (int(f[1]), f[2], f[3])
+        reg.dirty = False
+        _cache["text"], _cache["reg"] = text, reg
+    return reg
+
+
+def _save_registry(reg):
+    Y = _Y.load()
+    text = "".join(reg.lines.values())
+    Y.O.tags[_TAG] = text
+    reg.dirty = False
+    _cache["text"], _cache["reg"] = text, reg
+
+
+def _fingerprint(spheres):
+    """Identity of a clump's sphere set: ids, radii, densities (not positions: the clump moves)."""
+    h = hashlib.sha1()
+    for b in sorted(spheres, key=lambda b: b.id):
+        h.update(f"{b.id}:{float(b.shape.radius).hex()}:{float(b.material.density).hex()};".encode())
+    return h.hexdigest()[:16]
 
 
 # --------------------------------------------------------------------------- building
@@ -316,6 +448,149 @@ def _restore(Y, clump, spheres, positions, corr, offset, origin):
     clump.state.pos = Y.Vector3(float(origin[0]) + float(c[0]), float(origin[1]) + float(c[1]), float(origin[2]) + float(c[2]))
     _place(Y, spheres, positions)
     _place(Y, [corr], [origin + offset])
+
+
+
+
+def _raw(Y, name, *args, what, **kw):
+    """Call YADE's own ``O.bodies.<name>`` (not the guard) and turn a refusal into an error.
+
+    YADE reports a refused release/add as a Python warning ("Body 3 not released from clump 2,
+    because ...", "... Body was not added.") and carries on; here that raises
+    :class:`ClumpAdapterError` naming ``what``.
+    """
+    fn = _RAW.get(name) or getattr(type(Y.O.bodies), name)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ret = fn(Y.O.bodies, *args, **kw)
+    for w in caught:
+        msg = str(w.message)
+        if msg.startswith("Warning") or "not released" in msg or "not added" in msg:
+            raise ClumpAdapterError(f"{what}: YADE refused O.bodies.{name}: {msg}")
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return ret
+
+
+def _state_errors(Y, cids, mass, com, inertia):
+    """Relative errors (mass, centre of mass / radius of gyration, inertia / largest |moment|) of
+    YADE's state of each clump against targets (M,), (M, 3), (M, 3, 3); arrays of shape (M,)."""
+    M = len(cids)
+    rows = []
+    bodies = Y.O.bodies
+    for cid in cids:  # plain indexing: iterating minieigen objects goes through IndexError (slow)
+        st = bodies[cid].state
+        p, w, q = st.pos, st.inertia, st.ori
+        rows.append((st.mass, p[0], p[1], p[2], w[0], w[1], w[2], q[0], q[1], q[2], q[3]))
+    a = np.array(rows, dtype=float).reshape(M, 11)
+    m_y, c_y, w_y = a[:, 0], a[:, 1:4], a[:, 4:7]
+    R = _rotations(a[:, 7:11])
+    I_y = np.einsum("kij,kj,klj->kil", R, w_y, R)
+    mass = np.asarray(mass, float)
+    scale = np.maximum(np.max(np.abs(np.linalg.eigvalsh(inertia)), axis=1), 1e-300)
+    tr = np.maximum(np.trace(inertia, axis1=1, axis2=2), 0.0)
+    gyr = np.where(mass > 0, np.sqrt(tr / (2.0 * np.where(mass > 0, mass, 1.0))), 1.0)
+    e_m = np.abs(m_y - mass) / np.abs(mass)
+    e_c = np.linalg.norm(c_y - com, axis=1) / np.maximum(gyr, 1e-300)
+    e_i = np.max(np.abs(I_y - inertia), axis=(1, 2)) / scale
+    return e_m, e_c, e_i
+
+
+def _rotations(q):
+    """Rotation matrices (M, 3, 3) of quaternions (M, 4) given as (x, y, z, w), as minieigen's
+    ``toRotationMatrix`` computes them (normalised first)."""
+    q = q / np.linalg.norm(q, axis=1)[:, None]
+    x, y, z, w = q.T
+    R = np.empty((len(q), 3, 3))
+    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    R[:, 0, 1] = 2 * (x * y - z * w)
+    R[:, 0, 2] = 2 * (x * z + y * w)
+    R[:, 1, 0] = 2 * (x * y + z * w)
+    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    R[:, 1, 2] = 2 * (y * z - x * w)
+    R[:, 2, 0] = 2 * (x * z - y * w)
+    R[:, 2, 1] = 2 * (y * z + x * w)
+    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def _verify(Y, cids, mass, com, inertia, rtol=1e-10):
+    """YADE's state of each clump equals the target (mass, COM, inertia tensor), else raise."""
+    e_m, e_c, e_i = _state_errors(Y, cids, mass, com, inertia)
+    bad = np.flatnonzero(~((e_m <= rtol) & (e_c <= rtol) & (e_i <= rtol)))
+    if len(bad):
+        k = int(bad[0])
+        raise ClumpAdapterError(
+            f"clump #{cids[k]}: YADE's state after the build differs from the target (relative errors: mass "
+            f"{e_m[k]:.2g}, centre of mass {e_c[k]:.2g}, inertia {e_i[k]:.2g}; tolerance {rtol:g})"
+        )
+
+
+def _apply(plan, method):
+    """Make the clumps of ``plan`` [(clump body, sphere bodies, correction body or None), ...] exact.
+
+    Computes every target first (raises before any change), then per clump: builds around the
+    origin, updates YADE's clump with the correction in place, moves it back, restores the
+    rigid-body velocity field, and finally compares YADE's state with the target and records the
+    corrections in the registry.  Returns the correction ids.
+    """
+    Y = _Y.load()
+    if not plan:
+        return []
+    xs, rs, rhos = [], [], []
+    for _, spheres, _ in plan:
+        x, r = _geometry(spheres)
+        xs.append(x)
+        rs.append(r)
+        rhos.append(_clump_density(f"clump #{plan[len(xs) - 1][0].id}", spheres))
+    try:
+        mass, com, inertia = _batch_properties(xs, rs, rhos, method)
+        m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia, strict=method in _STRICT)
+    except ClumpAdapterError as exc:
+        k = _batch_index(str(exc))
+        raise ClumpAdapterError(f"clump #{plan[k][0].id}: {exc}" if k is not None else str(exc)) from exc
+    except ValueError as exc:
+        raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
+    # ---- from here on the scene is modified
+    reg = _registry()
+    out = []
+    for k, (cb, spheres, corr) in enumerate(plan):
+        cid = cb.id
+        c_old, v_old, w_old = _velocity_field(cb)
+        o = com[k]
+        _place(Y, spheres, xs[k] - o)  # update around the origin, then move back (see _restore)
+        if corr is None:
+            corr = _new_correction(Y, spheres)
+            _set_correction_state(Y, corr.state, m_c[k], off[k], w_c[k], V_c[k])
+            (corr_id,) = Y.O.bodies.append([corr])
+            corr = Y.O.bodies[corr_id]
+            _raw(Y, "addToClump", [corr_id], cid, discretization=0, what=f"clump #{cid}")
+        else:
+            corr.bounded = False
+            _set_correction_state(Y, corr.state, m_c[k], off[k], w_c[k], V_c[k])
+            if len(spheres) >= 2:  # release and re-add: YADE updates this clump only
+                _raw(Y, "releaseFromClump", corr.id, cid, discretization=0, what=f"clump #{cid}")
+                _set_correction_state(Y, corr.state, m_c[k], off[k], w_c[k], V_c[k])
+                _raw(Y, "addToClump", [corr.id], cid, discretization=0, what=f"clump #{cid}")
+            else:  # YADE refuses to release from a clump of < 2 members: update this clump alone
+                others = [b.id for b in Y.O.bodies if b is not None and b.isClump and b.id != cid]
+                _raw(Y, "updateClumpProperties", excludeList=others, discretization=0, what=f"clump #{cid}")
+        _restore(Y, cb, spheres, xs[k], corr, off[k], o)
+        # updateProperties zeroes vel and angVel (not angMom): restore the rigid-body velocity
+        # field, with angMom consistent with the new tensor
+        c_new = _vec(cb.state.pos)
+        set_clump_velocity(cid, v_old + np.cross(w_old, c_new - c_old), w_old)
+        reg[cid] = (corr.id, _fingerprint(spheres), method)
+        out.append(corr.id)
+    _save_registry(reg)
+    _verify(Y, [cb.id for cb, _, _ in plan], mass, com, inertia)
+    return out
+
+
+def _batch_index(message):
+    import re
+
+    m = re.match(r"clump (\d+) of the batch", message)
+    return int(m.group(1)) if m else None
 
 
 def _check_new_spheres(Y, k, spheres, seen):
@@ -375,24 +650,24 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
     rhos = [c[3] for c in checked]
     try:
         mass, com, inertia = _batch_properties(xs, rs, rhos, method)
+        m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia, strict=method in _STRICT)
+    except ClumpAdapterError as exc:
+        k = _batch_index(str(exc))
+        raise ClumpAdapterError(f"clump {k} of the input: {exc}" if k is not None else str(exc)) from exc
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
-    m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
     # python floats from here: the per-clump loop talks to YADE only
     V3, Q, M3 = Y.Vector3, Y.Quaternion, Y.Matrix3
     com_l, off_l, w_l, m_l = com.tolist(), off.tolist(), w_c.tolist(), m_c.tolist()
-    rows_l = np.swapaxes(V_c, 1, 2).reshape(-1, 9).tolist()  # V^T, row by row (see _make_correction)
+    rows_l = np.swapaxes(V_c, 1, 2).reshape(-1, 9).tolist()  # V^T, row by row (see _set_correction_state)
     append = Y.O.bodies.appendClumped
+    reg = _registry()
     out = []
     for k, (spheres, pos, _, _) in enumerate(checked):
         ox, oy, oz = com_l[k]
         for b, (x, y, z) in zip(spheres, pos):  # build near the origin: see _restore
             b.state.pos = V3(x - ox, y - oy, z - oz)
-        corr = Y.Body()
-        corr.shape = Y.Shape()
-        corr.material = spheres[0].material
-        corr.bounded = False
-        corr.mask = spheres[0].mask
+        corr = _new_correction(Y, spheres)
         st = corr.state
         st.mass = m_l[k]
         st.pos = V3(*off_l[k])
@@ -408,7 +683,10 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
             b.state.pos = V3(*xyz)
         dx, dy, dz = off_l[k]
         st.pos = V3(ox + dx, oy + dy, oz + dz)
+        reg[cid] = (corr.id, _fingerprint(spheres), method)
         out.append((cid, list(mids[: len(spheres)])))
+    _save_registry(reg)
+    _verify(Y, [cid for cid, _ in out], mass, com, inertia)
     return out
 
 
@@ -450,6 +728,25 @@ def set_clump_velocity(clump_id, vel=None, ang_vel=None):
         st.angMom = Y.Vector3(*L.tolist())
 
 
+def _plan_entry(cid, what="clump"):
+    """(clump body, sphere members, correction or None) of an existing clump; raises on bad input."""
+    cb = _body(cid, what)
+    if not cb.isClump:
+        kind = f"a member of clump #{cb.clumpId}" if cb.isClumpMember else "standalone"
+        raise ClumpAdapterError(f"body #{cb.id} is not a clump ({kind})")
+    spheres, corr = _split_members(cb)
+    _clump_density(f"clump #{cb.id}", spheres)
+    return cb, spheres, corr
+
+
+def _method_of(cid, method):
+    """The method a clump was corrected with (registry), unless one is given."""
+    if method is not None:
+        return method
+    rec = _registry().get(int(cid))
+    return rec[2] if rec is not None else DEFAULT_METHOD
+
+
 def correct_clumps(clump_ids, method=DEFAULT_METHOD):
     """Make existing clumps exact (built by ``clump``, ``appendClumped``, ``replaceByClumps``, ...).
 
@@ -458,58 +755,14 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
     the clump's velocity is re-referred to the new centre of mass).  Returns the correction
     member ids.  Every id is checked before anything is modified.
     """
-    Y = _Y.load()
     ids = [clump_ids] if np.ndim(clump_ids) == 0 else list(clump_ids)
-    plan = []
-    seen = set()
+    plan, seen = [], set()
     for cid in ids:
-        cb = _body(cid, "clump")
-        if not cb.isClump:
-            what = f"a member of clump #{cb.clumpId}" if cb.isClumpMember else "standalone"
-            raise ClumpAdapterError(f"body #{cb.id} is not a clump ({what})")
-        if cb.id in seen:
-            continue
-        seen.add(cb.id)
-        spheres, corr = _split_members(cb)
-        rho = _clump_density(f"clump #{cb.id}", spheres)
-        plan.append((cb, spheres, corr, rho))
-    if not plan:
-        return []
-    xs, rs, rhos = [], [], []
-    for _, spheres, _, rho in plan:
-        x, r = _geometry(spheres)
-        xs.append(x)
-        rs.append(r)
-        rhos.append(rho)
-    try:
-        mass, com, inertia = _batch_properties(xs, rs, rhos, method)
-    except ValueError as exc:
-        raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
-    m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia)
-    # ---- from here on the scene is modified
-    out = []
-    for k, (cb, spheres, corr, _) in enumerate(plan):
-        c_old, v_old, w_old = _velocity_field(cb)
-        o = com[k]
-        _place(Y, spheres, xs[k] - o)  # update around the origin, then move back (see _restore)
-        new = _make_correction(Y, spheres[0].material, spheres[0].mask, m_c[k], off[k], w_c[k], V_c[k])
-        if corr is None:
-            (corr_id,) = Y.O.bodies.append([new])
-            Y.O.bodies.addToClump([corr_id], cb.id, discretization=0)
-        else:
-            corr_id = corr.id
-            Y.O.bodies.releaseFromClump(corr_id, cb.id, discretization=0)
-            st, ns = corr.state, new.state
-            st.mass, st.pos, st.inertia, st.ori = ns.mass, ns.pos, ns.inertia, ns.ori
-            corr.bounded = False
-            Y.O.bodies.addToClump([corr_id], cb.id, discretization=0)
-        _restore(Y, cb, spheres, xs[k], Y.O.bodies[corr_id], off[k], o)
-        # updateProperties zeroes vel and angVel (not angMom): restore the rigid-body velocity
-        # field, with angMom consistent with the new tensor
-        c_new = _vec(cb.state.pos)
-        set_clump_velocity(cb.id, v_old + np.cross(w_old, c_new - c_old), w_old)
-        out.append(corr_id)
-    return out
+        entry = _plan_entry(cid)
+        if entry[0].id not in seen:
+            seen.add(entry[0].id)
+            plan.append(entry)
+    return _apply(plan, method)
 
 
 def correct_clump(clump_id, method=DEFAULT_METHOD):
@@ -525,52 +778,465 @@ def correct_all_clumps(method=DEFAULT_METHOD):
     return ids
 
 
-def replace_by_clumps(templates, amounts, method=DEFAULT_METHOD):
-    """Drop-in for ``O.bodies.replaceByClumps(templates, amounts)``, producing exact clumps.
+def replace_by_clumps(templates, amounts, discretization=0, method=DEFAULT_METHOD):
+    """Drop-in for ``O.bodies.replaceByClumps(templates, amounts, discretization)``, producing exact clumps.
 
-    YADE places the clumps (same rules, same return value
-    ``[(clump_id, [member_ids]), ...]``); each new clump is then corrected.
+    YADE places the clumps (same rules, same return value ``[(clump_id, [member_ids]), ...]``);
+    each new clump is then corrected (``discretization`` is irrelevant for them: the result is
+    the library's).  Clumps already in the scene are not touched.
     """
     Y = _Y.load()
-    ret = Y.O.bodies.replaceByClumps(templates, amounts, discretization=0)
-    correct_clumps([int(c) for c, _ in ret], method=method)
+    before = {b.id for b in Y.O.bodies if b is not None and b.isClump}
+    ret = _raw(Y, "replaceByClumps", templates, amounts, discretization=0, what="replaceByClumps")
+    new = [int(c) for c, _ in ret if int(c) not in before]
+    correct_clumps(new, method=method)
     return [(int(c), [int(m) for m in mids]) for c, mids in ret]
 
 
-def text_clumps(fileName, shift=None, orientation=None, scale=1.0, method=DEFAULT_METHOD, **kw):
-    """Drop-in for ``ymport.textClumps(fileName, ...)`` (format ``x y z r clumpId``), producing exact clumps.
+def text_clumps(fileName, shift=None, discretization=0, orientation=None, scale=1.0, method=DEFAULT_METHOD, **kw):
+    """Drop-in for ``ymport.textClumps(fileName, shift, discretization, orientation, scale, **kw)``: exact clumps.
 
-    Reads the file like YADE does (lines starting with ``#`` skipped, a new clump whenever the
-    id column changes), builds the spheres with ``utils.sphere(..., **kw)`` and appends all
-    clumps with :func:`append_clumps`.  Returns ``[(clump_id, [member_ids]), ...]``; each
-    clump's mask is set to its first member's (as ``textClumps`` does).
+    Same arguments in the same order (``discretization`` is accepted for compatibility and
+    irrelevant: the clumps get the library's values), same grouping (a new clump whenever the
+    id column changes), same return value ``[(clump_id, [member_ids]), ...]`` and the clump's mask
+    set to its first member's; ``**kw`` go to ``utils.sphere`` (material, color, mask, ...).
+    The file is read by the project's own parser (:mod:`clumpprops.textclumps`), so a malformed
+    line raises :class:`~clumpprops.textclumps.TextClumpsError` with its line number before
+    anything is added.
     """
     Y = _Y.load()
     from yade import utils
 
-    shift = Y.Vector3(0, 0, 0) if shift is None else Y.Vector3(*[float(a) for a in shift])
-    orientation = Y.Quaternion((0, 1, 0), 0.0) if orientation is None else orientation
-    groups, cur, last = [], [], None
-    with open(fileName) as fh:
-        for n, line in enumerate(fh, 1):
-            data = line.split()
-            if not data or data[0].startswith("#"):
-                continue
-            if len(data) < 5:
-                raise ClumpAdapterError(f"{fileName}:{n}: expected 'x y z r clumpId', got {line.strip()!r}")
-            pos = orientation * Y.Vector3(float(data[0]), float(data[1]), float(data[2]))
-            key = int(data[4])
-            if last is not None and key != last:
-                groups.append(cur)
-                cur = []
-            cur.append(utils.sphere(shift + scale * pos, scale * float(data[3]), **kw))
-            last = key
-    if cur:
-        groups.append(cur)
+    from .textclumps import read_text_clumps
+
+    q = Y.Quaternion((0, 1, 0), 0.0) if orientation is None else orientation
+    sh = Y.Vector3(0, 0, 0) if shift is None else Y.Vector3(*[float(a) for a in shift])
+    clumps = read_text_clumps(fileName)  # file coordinates; YADE's transform below
+    R = _rotation(q)
+    shift_np = _vec(sh)
+    groups = []
+    for c in clumps:
+        pos = shift_np + scale * (c.centers @ R.T)  # shift + scale * (orientation * x)
+        groups.append([utils.sphere(tuple(p), scale * float(r), **kw) for p, r in zip(pos.tolist(), c.radii.tolist())])
     ret = append_clumps(groups, method=method)
     for cid, mids in ret:
         Y.O.bodies[cid].mask = Y.O.bodies[mids[0]].mask
     return ret
+
+
+def export_text_clumps(filename, comment="", mask=-1):
+    """``export.textClumps`` that can be read back: ids as integers, coordinates to the last bit.
+
+    YADE's writer uses ``%g``: 6 significant digits for positions and radii, and ids >= 10**6 in
+    exponent form (``1.23457e+06``), rounded, so neighbouring clumps can merge and
+    ``ymport.textClumps`` cannot read the file.  This writes the same format
+    (``#format x_y_z_r_clumpId``, one sphere member per line, correction members skipped) with
+    ``%.17g`` and ``%d``.  Returns ``(number of clumps, number of spheres)`` like YADE's.
+    """
+    Y = _Y.load()
+    out = ["#format x_y_z_r_clumpId\n"]
+    if comment:
+        out.append("# " + comment + "\n")
+    n_clumps = n = 0
+    for b in Y.O.bodies:
+        if b is None or not b.isClump:
+            continue
+        n_clumps += 1
+        for mid in b.shape.members.keys():
+            m = Y.O.bodies[int(mid)]
+            if m is not None and isinstance(m.shape, Y.Sphere) and (mask < 0 or (mask & m.mask) > 0):
+                p = m.state.pos
+                out.append(f"{float(p[0])!r}\t{float(p[1])!r}\t{float(p[2])!r}\t{float(m.shape.radius)!r}\t{b.id:d}\n")
+                n += 1
+    with open(filename, "w") as f:
+        f.write("".join(out))
+    return n_clumps, n
+
+
+# --------------------------------------------------------------------------- the clump's life: release, add, erase, update
+
+
+def release(body_id, clump_id, discretization=0):
+    """``O.bodies.releaseFromClump(body_id, clump_id)`` that keeps the clump exact.
+
+    The released sphere becomes a free body moving with the clump's rigid-body velocity field;
+    the clump is corrected for its remaining spheres.  Raises :class:`ClumpAdapterError`
+    (nothing changed) where YADE would refuse (the body is not a member; fewer than two spheres
+    would remain) or for the correction member itself.  ``discretization`` is ignored for a
+    corrected clump (exact) and passed to YADE for an uncorrected one.
+    """
+    Y = _Y.load()
+    bid = _body(body_id).id
+    cb, spheres, corr = _plan_entry(clump_id)
+    cid = cb.id
+    if bid not in [b.id for b in spheres]:
+        if corr is not None and bid == corr.id:
+            raise ClumpAdapterError(f"clump #{cid}: body #{bid} is its correction member and cannot be released")
+        raise ClumpAdapterError(f"clump #{cid}: body #{bid} is not a member; nothing released")
+    if len(spheres) - 1 < 2:
+        raise ClumpAdapterError(
+            f"clump #{cid}: releasing body #{bid} would leave {len(spheres) - 1} sphere (YADE keeps at least 2); nothing released"
+        )
+    if corr is None:
+        return _raw(Y, "releaseFromClump", bid, cid, discretization=discretization, what=f"clump #{cid}")
+    method = _method_of(cid, None)
+    c0, v0, w0 = _velocity_field(cb)
+    x = _vec(Y.O.bodies[bid].state.pos)
+    _neutralize(Y, corr)
+    _raw(Y, "releaseFromClump", bid, cid, discretization=0, what=f"clump #{cid}")
+    b = Y.O.bodies[bid]
+    b.state.vel = Y.Vector3(*(v0 + np.cross(w0, x - c0)).tolist())
+    b.state.angVel = Y.Vector3(*w0.tolist())
+    cb.state.vel, cb.state.angVel = Y.Vector3(*v0.tolist()), Y.Vector3(*w0.tolist())
+    _keep_field(Y, cb, c0, v0, w0)
+    _apply([_plan_entry(cid)], method)
+
+
+def _keep_field(Y, cb, c0, v0, w0):
+    """Set a clump's velocity to the rigid field (c0, v0, w0) re-referred to its current centre."""
+    c = _vec(cb.state.pos)
+    cb.state.vel = Y.Vector3(*(v0 + np.cross(w0, c - c0)).tolist())
+    cb.state.angVel = Y.Vector3(*w0.tolist())
+
+
+def add_to_clump(body_ids, clump_id, discretization=0, method=None):
+    """``O.bodies.addToClump(body_ids, clump_id)`` with an exact result.
+
+    ``body_ids``: standalone spheres and/or clumps of spheres (a clump's spheres join, its body is
+    erased as YADE does; its correction is dropped).  All spheres must share the clump's density.
+    The clump keeps its rigid-body velocity field (the added bodies adopt it) and is corrected for
+    all its spheres (``method``: the clump's own, default exact).  Raises (nothing changed) for a
+    body that does not exist, is already in this clump, is a member of another clump, is not a
+    sphere, or has another density.
+    """
+    Y = _Y.load()
+    cb, spheres, corr = _plan_entry(clump_id)
+    cid = cb.id
+    ids = [body_ids] if np.ndim(body_ids) == 0 else list(body_ids)
+    if not ids:
+        raise ClumpAdapterError(f"clump #{cid}: no bodies to add")
+    added = []
+    for i in ids:
+        b = _body(i)
+        if b.id == cid or b.clumpId == cid:
+            raise ClumpAdapterError(f"clump #{cid}: body #{b.id} is already part of it; nothing added")
+        if b.isClumpMember:
+            raise ClumpAdapterError(f"clump #{cid}: body #{b.id} is a member of clump #{b.clumpId}; add that clump instead")
+        if b.isClump:
+            sph, c2 = _split_members(b)
+        elif isinstance(b.shape, Y.Sphere) and b.material is not None:
+            sph = [b]
+        else:
+            kind = type(b.shape).__name__ if b.shape is not None else "no shape"
+            raise ClumpAdapterError(f"clump #{cid}: body #{b.id} is not a sphere or a clump of spheres ({kind})")
+        _clump_density(f"clump #{cid} with body #{b.id}", spheres[:1] + sph)
+        added.append(b.id)
+    method = _method_of(cid, method)
+    c0, v0, w0 = _velocity_field(cb)
+    _neutralize(Y, corr)
+    reg = _registry()
+    # clumps to add are dissolved first and their spheres added one by one: YADE's own
+    # addToClump(clump) leaves the merged members with clumpId -1 (seen in 2023.02a), after which
+    # erasing one of them leaves a dangling entry in the clump's member list
+    sphere_ids = []
+    for i in added:
+        b = Y.O.bodies[i]
+        if b.isClump:
+            sph, c2 = _split_members(b)
+            _neutralize(Y, c2)
+            _raw(Y, "erase", i, False, what=f"clump #{i}")
+            if c2 is not None and Y.O.bodies[c2.id] is not None:
+                _raw(Y, "erase", c2.id, False, what=f"clump #{i}")
+            reg.pop(i, None)
+            sphere_ids += [s.id for s in sph]
+        else:
+            sphere_ids.append(i)
+    _save_registry(reg)
+    _raw(Y, "addToClump", sphere_ids, cid, discretization=0, what=f"clump #{cid}")
+    _keep_field(Y, cb, c0, v0, w0)
+    _apply([_plan_entry(cid)], method)
+    for b in sphere_member_ids(cid):  # the members adopt the clump's field (YADE leaves them as they were)
+        st = Y.O.bodies[b].state
+        st.vel = Y.Vector3(*(v0 + np.cross(w0, _vec(st.pos) - c0)).tolist())
+        st.angVel = Y.Vector3(*w0.tolist())
+
+
+def erase(body_id, eraseClumpMembers=False):
+    """``O.bodies.erase(body_id, eraseClumpMembers)`` that never leaves a correction behind.
+
+    * a corrected clump: its correction is erased with it; its spheres become free bodies (or
+      are erased too with ``eraseClumpMembers=True``), as in YADE;
+    * a sphere of a corrected clump: erased, and the clump is corrected for the spheres left
+      (the clump goes when its last sphere goes);
+    * the correction member itself: refused (erase the clump, or release spheres instead);
+    * anything else: YADE's erase.
+    Returns YADE's return value (True).
+    """
+    Y = _Y.load()
+    b = _body(body_id)
+    bid = b.id
+    if is_correction(b) or (type(b.shape) is Y.Shape and not b.bounded and not b.isClump):
+        raise ClumpAdapterError(
+            f"body #{bid} is a clumpprops correction{f' of clump #{b.clumpId}' if b.isClumpMember else ''}: "
+            "erase its clump or its spheres instead"
+        )
+    reg = _registry()
+    if b.isClump:
+        spheres, corr = _split_members(b)
+        if corr is None:
+            return _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
+        _neutralize(Y, corr)
+        ret = _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
+        if Y.O.bodies[corr.id] is not None:
+            _raw(Y, "erase", corr.id, what=f"clump #{bid}")
+        reg.pop(bid, None)
+        _save_registry(reg)
+        return ret
+    if b.isClumpMember:
+        cb = Y.O.bodies[b.clumpId]
+        spheres, corr = _split_members(cb)
+        if corr is None:
+            return _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{cb.id}")
+        cid = cb.id
+        method = _method_of(cid, None)
+        c0, v0, w0 = _velocity_field(cb)
+        if len(spheres) == 1:  # the last sphere: the clump and its correction go too
+            _neutralize(Y, corr)
+            ret = _raw(Y, "erase", cid, True, what=f"clump #{cid}")
+            reg.pop(cid, None)
+            _save_registry(reg)
+            return ret
+        _neutralize(Y, corr)
+        ret = _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{cid}")
+        _keep_field(Y, cb, c0, v0, w0)
+        _apply([_plan_entry(cid)], method)
+        return ret
+    return _raw(Y, "erase", bid, eraseClumpMembers, what=f"body #{bid}")
+
+
+def update_clump_properties(excludeList=(), discretization=5):
+    """``O.bodies.updateClumpProperties(excludeList, discretization)`` that keeps corrected clumps exact.
+
+    Corrected clumps (not in ``excludeList``) are recomputed exactly for where their spheres are
+    (``discretization`` is irrelevant for them); every other clump gets YADE's own update with
+    ``discretization``, as before.
+    """
+    Y = _Y.load()
+    excl = {int(i) for i in excludeList}
+    corrected, plain_excl = [], set(excl)
+    for b in Y.O.bodies:
+        if b is None or not b.isClump or b.id in excl:
+            continue
+        entry = _plan_entry(b.id) if _has_correction(Y, b) else None
+        if entry is not None:
+            corrected.append(entry)
+            plain_excl.add(b.id)
+    _raw(Y, "updateClumpProperties", excludeList=sorted(plain_excl), discretization=discretization,
+         what="updateClumpProperties")
+    by_method = {}
+    for e in corrected:
+        by_method.setdefault(_method_of(e[0].id, None), []).append(e)
+    for m, plan in by_method.items():
+        _apply(plan, m)
+
+
+def _has_correction(Y, cb):
+    for mid in cb.shape.members.keys():
+        mb = Y.O.bodies[int(mid)]
+        if mb is not None and type(mb.shape) is Y.Shape and not mb.bounded:
+            return True
+    return False
+
+
+# --------------------------------------------------------------------------- guards on O.bodies
+
+_RAW = {}
+_GUARDED = ("releaseFromClump", "addToClump", "erase", "updateClumpProperties")
+_bypass = [0]
+
+
+@contextlib.contextmanager
+def unguarded():
+    """YADE's own ``O.bodies`` methods inside the block, as if the adapter were not loaded (tests, debugging)."""
+    _bypass[0] += 1
+    try:
+        yield
+    finally:
+        _bypass[0] -= 1
+
+
+def _corrected_clump_of(Y, bid):
+    """The corrected clump that body ``bid`` is (or is a member of), else None."""
+    try:
+        b = Y.O.bodies[int(bid)]
+    except Exception:
+        return None
+    if b is None:
+        return None
+    if b.isClumpMember:
+        b = Y.O.bodies[b.clumpId]
+    return b if (b is not None and b.isClump and _has_correction(Y, b)) else None
+
+
+def _install_guards(Y):
+    """Route ``O.bodies.releaseFromClump/addToClump/erase/updateClumpProperties`` through the adapter
+    whenever they touch a corrected clump (anything else goes straight to YADE)."""
+    BC = type(Y.O.bodies)
+    if _RAW:
+        return
+    for name in _GUARDED:
+        _RAW[name] = getattr(BC, name)
+
+    def releaseFromClump(self, bid, cid, discretization=0):
+        if _bypass[0] or _corrected_clump_of(Y, cid) is None:
+            return _RAW["releaseFromClump"](self, bid, cid, discretization)
+        return release(bid, cid, discretization)
+
+    def addToClump(self, ids, cid, discretization=0):
+        lst = [ids] if np.ndim(ids) == 0 else list(ids)
+        if _bypass[0] or all(_corrected_clump_of(Y, i) is None for i in [cid] + lst):
+            return _RAW["addToClump"](self, ids, cid, discretization)
+        return add_to_clump(lst, cid, discretization)
+
+    def erase(self, bid, eraseClumpMembers=False):
+        if _bypass[0] or _corrected_clump_of(Y, bid) is None:
+            return _RAW["erase"](self, bid, eraseClumpMembers)
+        return globals()["erase"](bid, eraseClumpMembers)
+
+    def updateClumpProperties(self, excludeList=[], discretization=5):
+        if _bypass[0]:
+            return _RAW["updateClumpProperties"](self, excludeList, discretization)
+        return update_clump_properties(excludeList, discretization)
+
+    for f in (releaseFromClump, addToClump, erase, updateClumpProperties):
+        f.__doc__ = (_RAW[f.__name__].__doc__ or "") + "\n\n[clumpprops] routed through clumpprops.yade for corrected clumps."
+        setattr(BC, f.__name__, f)
+
+
+# --------------------------------------------------------------------------- checking the scene
+
+
+@dataclass
+class CheckReport:
+    """Result of :func:`check`.
+
+    ``exact``: corrected clumps whose YADE state equals the library's (within ``rtol``);
+    ``uncorrected``: clumps without a correction and without a registry entry (YADE's own, not an
+    error); ``stale``: [(clump id, reason)] corrected clumps that no longer match (state off, sphere
+    set changed since the correction, correction lost); ``orphaned``: [(body id, reason)] corrections
+    without their clump (a free correction body, a registry entry for a missing clump);
+    ``max_error``: the largest relative error found over the exact and stale clumps.
+    """
+
+    exact: list = field(default_factory=list)
+    uncorrected: list = field(default_factory=list)
+    stale: list = field(default_factory=list)
+    orphaned: list = field(default_factory=list)
+    max_error: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return not self.stale and not self.orphaned
+
+    def __str__(self):
+        lines = [f"clumpprops check: {len(self.exact)} exact, {len(self.uncorrected)} uncorrected, "
+                 f"{len(self.stale)} stale, {len(self.orphaned)} orphaned (max relative error {self.max_error:.2g})"]
+        lines += [f"  stale clump #{c}: {why}" for c, why in self.stale]
+        lines += [f"  orphaned #{c}: {why}" for c, why in self.orphaned]
+        return "\n".join(lines)
+
+
+def check(rtol=1e-9, raise_on_error=False):
+    """Verify every clump of the scene against its exact properties; report stale or orphaned corrections.
+
+    For each corrected clump: the correction is the one recorded in the registry
+    (``O.tags["clumpprops.corrections"]``, saved with the scene), the sphere set has the recorded
+    fingerprint (ids, radii, densities), and YADE's mass, centre of mass and inertia tensor equal
+    the library's for the spheres where they are now (relative ``rtol``; clumps corrected with
+    ``montecarlo`` are checked for their fingerprint only).  Also reports correction bodies that
+    are not in a clump (e.g. left by YADE's own ``erase`` of a corrected clump: a free body of
+    negative mass) and registry entries whose clump is gone or has lost its correction.
+    ``raise_on_error=True`` raises :class:`ClumpAdapterError` listing them.
+    """
+    Y = _Y.load()
+    reg = _registry()
+    rep = CheckReport()
+    seen = set()
+    pending = []  # corrected clumps with a registry entry: (id, spheres, method, reasons)
+    for b in Y.O.bodies:
+        if b is None:
+            continue
+        if type(b.shape) is Y.Shape and not b.bounded and not b.isClump and not b.isClumpMember:
+            rep.orphaned.append((b.id, f"correction body outside any clump (free body, mass {float(b.state.mass):.6g} kg)"))
+            continue
+        if not b.isClump:
+            continue
+        cid = b.id
+        seen.add(cid)
+        rec = reg.get(cid)
+        try:
+            spheres, corr = _split_members(b)
+        except ClumpAdapterError as exc:
+            if rec is not None:
+                rep.stale.append((cid, str(exc)))
+            else:
+                rep.uncorrected.append(cid)
+            continue
+        if corr is None:
+            if rec is not None:
+                rep.stale.append((cid, f"the registry records correction #{rec[0]} but the clump has none (YADE's summed values)"))
+            else:
+                rep.uncorrected.append(cid)
+            continue
+        if rec is None:
+            rep.stale.append((cid, f"correction #{corr.id} is not in the registry"))
+            continue
+        why = []
+        if rec[0] != corr.id:
+            why.append(f"correction is #{corr.id}, the registry records #{rec[0]}")
+        if rec[1] != _fingerprint(spheres):
+            why.append("its sphere set changed since it was corrected (fingerprint differs)")
+        pending.append((cid, spheres, rec[2], why))
+    # YADE's state against the library, one batch per method
+    by_method = {}
+    for item in pending:
+        by_method.setdefault(item[2], []).append(item)
+    for method, items in by_method.items():
+        if method != "montecarlo":
+            try:
+                xs, rs, rhos = [], [], []
+                for _, spheres, _, _ in items:
+                    x, r = _geometry(spheres)
+                    xs.append(x)
+                    rs.append(r)
+                    rhos.append(_clump_density(f"clump #{items[len(xs) - 1][0]}", spheres))
+                mass, com, inertia = _batch_properties(xs, rs, rhos, method)
+            except (ValueError, ImportError) as exc:
+                for _, _, _, why in items:
+                    why.append(f"exact properties could not be computed: {exc}")
+            else:
+                e_m, e_c, e_i = _state_errors(Y, [it[0] for it in items], mass, com, inertia)
+                for k, (_, _, _, why) in enumerate(items):
+                    e = max(e_m[k], e_c[k], e_i[k])
+                    rep.max_error = max(rep.max_error, float(e))
+                    if not e <= rtol:
+                        why.append(
+                            f"YADE's state differs from the exact properties (relative: mass {e_m[k]:.2g}, "
+                            f"centre of mass {e_c[k]:.2g}, inertia {e_i[k]:.2g})"
+                        )
+        for cid, _, _, why in items:
+            if why:
+                rep.stale.append((cid, "; ".join(why)))
+            else:
+                rep.exact.append(cid)
+    for cid, rec in reg.items():
+        if cid not in seen:
+            rep.orphaned.append((cid, f"registry entry for clump #{cid} (correction #{rec[0]}), which no longer exists"))
+    rep.exact.sort()
+    rep.stale.sort()
+    if raise_on_error and not rep.ok:
+        raise ClumpAdapterError(str(rep))
+    return rep
 
 
 # --------------------------------------------------------------------------- inspection

@@ -1,32 +1,74 @@
 #!/usr/bin/env bash
-# Set up everything clumpprops needs on a fresh Debian 12 machine; idempotent.
-#  - Debian packages: YADE 2023.02a, LIGGGHTS 3.8.0 and LAMMPS (engine checks of the exporters), the scientific stack for /usr/bin/python3 (YADE's interpreter)
-#  - .venv: a venv of /usr/bin/python3 that sees those packages, can `import yade`,
-#    and has clumpprops installed in editable mode (console script `clumpprops`).
+# Set up everything clumpprops needs on a fresh Debian machine; idempotent.
+#
+#   bash scripts/setup.sh                              # Debian 12: YADE 2023.02a, venv .venv
+#   VENV=.venv-debian13 bash scripts/setup.sh          # the same inside the Debian 13 root
+#                                                      # (scripts/debian13.sh run ...): YADE 2025.2
+#
+# Steps (each a function below, run in this order; add new steps the same way):
+#   debian_packages  YADE, LIGGGHTS and LAMMPS (exporter checks), Dask (the study engine) and the scientific stack for /usr/bin/python3 (YADE's interpreter), via apt
+#   make_venv        $VENV: a venv of /usr/bin/python3 that sees Debian's packages and can `import yade`
+#   install_package  clumpprops in editable mode into $VENV (console script `clumpprops`)
+#   report           one line: clumpprops, Python, numpy and the YADE version that was set up
+#
+# VENV (default .venv) is relative to the repository root.  The repository is bind-mounted into
+# the Debian 13 root, so the host's .venv (Python 3.11) must not be reused there: use
+# VENV=.venv-debian13 inside it (the Makefile does).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PKGS="yade liggghts lammps python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
-missing=""
-for p in $PKGS; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
-done
-if [ -n "$missing" ]; then
-  echo "[setup] installing Debian packages:$missing"
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+VENV="${VENV:-.venv}"
+PY="$VENV/bin/python"
+YADE_PY=/usr/lib/x86_64-linux-gnu/yade-double/py
+PKGS="yade liggghts lammps python3-distributed python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
+
+log() { echo "[setup] $*"; }
+
+debian_packages() {
+  local missing="" p SUDO=""
+  for p in $PKGS; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+  done
+  [ -z "$missing" ] && return 0
+  log "installing Debian packages:$missing"
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $missing >/dev/null
-fi
-YADE_PY=/usr/lib/x86_64-linux-gnu/yade-double/py
-[ -d "$YADE_PY" ] || { echo "[setup] YADE's python package not found at $YADE_PY" >&2; exit 1; }
-if [ ! -x .venv/bin/python ]; then
-  echo "[setup] creating .venv from /usr/bin/python3 (with Debian's site packages)"
-  /usr/bin/python3 -m venv --system-site-packages .venv
-fi
-SITE=$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
-echo "$YADE_PY" > "$SITE/yade_double.pth"
-if ! .venv/bin/python -I -c 'import clumpprops, sys; sys.exit(0 if clumpprops.__file__.startswith("'"$PWD"'/") else 1)' 2>/dev/null; then
-  echo "[setup] installing clumpprops (editable) into .venv"
-  .venv/bin/python -m pip install -q --no-deps --no-build-isolation --no-index -e . \
-    || echo "$PWD" > "$SITE/clumpprops_src.pth"
-fi
-.venv/bin/python -I -c 'import clumpprops, yade.config; print("[setup] ok: clumpprops", clumpprops.__version__, "from", clumpprops.__file__, "| YADE", yade.config.version)' 2>&1 | tail -1
+}
+
+make_venv() {
+  [ -d "$YADE_PY" ] || { echo "[setup] YADE's python package not found at $YADE_PY" >&2; exit 1; }
+  # a venv made by another Python (e.g. the host's .venv seen from the Debian 13 root) is remade
+  local want have
+  want=$(/usr/bin/python3 -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+  have=$(sed -n 's/^version[_a-z]* *= *\([0-9]*\.[0-9]*\).*/\1/p' "$VENV/pyvenv.cfg" 2>/dev/null | head -1 || true)
+  if [ -f "$VENV/pyvenv.cfg" ] && [ "$have" != "$want" ]; then
+    log "$VENV was made by Python ${have:-?}, not /usr/bin/python3 ($want): remaking it"
+    rm -rf "$VENV"
+  fi
+  if [ ! -x "$PY" ]; then
+    log "creating $VENV from /usr/bin/python3 (with Debian's site packages)"
+    /usr/bin/python3 -m venv --system-site-packages "$VENV"
+  fi
+  local site
+  site=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+  echo "$YADE_PY" > "$site/yade_double.pth"
+}
+
+install_package() {
+  if ! "$PY" -I -c 'import clumpprops, sys; sys.exit(0 if clumpprops.__file__.startswith("'"$PWD"'/") else 1)' 2>/dev/null; then
+    log "installing clumpprops (editable) into $VENV"
+    local site
+    site=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+    "$PY" -m pip install -q --no-deps --no-build-isolation --no-index -e . \
+      || echo "$PWD" > "$site/clumpprops_src.pth"
+  fi
+}
+
+report() {
+  "$PY" -I -c 'import sys, numpy, clumpprops, yade.config; print("[setup] ok:", sys.argv[1], "| clumpprops", clumpprops.__version__, "from", clumpprops.__file__, "| Python", sys.version.split()[0], "| numpy", numpy.__version__, "| YADE", yade.config.version)' "$VENV" 2>&1 | tail -1
+}
+
+debian_packages
+make_venv
+install_package
+report

@@ -7,10 +7,30 @@ import numpy as np
 import pytest
 
 import yade  # installed by scripts/setup.sh; a missing YADE is a failure, not a skip
+import yade.config  # noqa: E402
 from yade import utils  # noqa: E402
 from yade.wrapper import FrictMat  # noqa: E402
 
 O = yade.O
+
+YADE_VERSION = str(yade.config.version)  # "2023.02a" (Debian 12) or "2025.2.0" (Debian 13)
+
+
+def default_rot_algorithm():
+    """NewtonIntegrator's scheme for aspherical rotation: YADE 2023.02a has only Fincham 1992;
+    2025.2 adds ``rotAlgorithm`` with default delValle2023 (yade-facts.md)."""
+    from yade.wrapper import NewtonIntegrator
+
+    n = NewtonIntegrator()
+    name = str(n.rotAlgorithm).rsplit(".", 1)[-1] if hasattr(n, "rotAlgorithm") else "Fincham1992"
+    expected = {"2023": "Fincham1992", "2025": "delValle2023"}.get(YADE_VERSION[:4])
+    assert expected is None or name == expected, (YADE_VERSION, name)
+    return name
+
+
+def is_yade_2023():
+    return YADE_VERSION.startswith("2023")
+
 
 PAPER_D = 0.1333  # m, sphere diameter of the paper's dimer
 PAPER_RHO = 1140.0  # kg/m^3

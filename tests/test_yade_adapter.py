@@ -102,14 +102,19 @@ def test_random_clumps_exact_state_positions_persistence(scene, tmp_path, seed):
     O.bodies.updateClumpProperties(discretization=0)
     check("load + updateClumpProperties(0)")
     O.saveTmp("t")
-    O.bodies.updateClumpProperties(discretization=10)  # YADE's voxels: ignores the correction
+    with cy.unguarded():  # YADE's own voxel update ignores the correction
+        O.bodies.updateClumpProperties(discretization=10)
     assert abs(O.bodies[cid].state.mass - mp.mass) > 1e-4 * mp.mass
+    assert not cy.check().ok
     O.loadTmp("t")
     check("saveTmp/loadTmp")
-    cy.correct_all_clumps()  # restores after a voxel update too
-    O.bodies.updateClumpProperties(discretization=10)
-    cy.correct_all_clumps()
+    O.bodies.updateClumpProperties(discretization=10)  # routed through the adapter: stays exact
+    check("updateClumpProperties(10), guarded")
+    with cy.unguarded():
+        O.bodies.updateClumpProperties(discretization=10)
+    cy.correct_all_clumps()  # restores after YADE's own voxel update too
     check("voxel update + correct_all_clumps")
+    assert cy.check().ok
     assert cy.correction_id(cid) == corr
 
 
@@ -131,7 +136,8 @@ def test_far_from_origin(scene, origin):
     for i, m in enumerate(ymids):
         assert np.array_equal(vec(O.bodies[m].state.pos), c2[i])
     # YADE's own update keeps the correction but uses its world-origin sums: eps (|c|/size)^2
-    O.bodies.updateClumpProperties(discretization=0)
+    with cy.unguarded():
+        O.bodies.updateClumpProperties(discretization=0)
     assert_state_matches(O.bodies[cid].state, mp, rtol=max(1e-12, 1e-14 * (np.linalg.norm(origin) / 0.1) ** 2))
     cy.correct_all_clumps()  # back to round-off
     assert_state_matches(O.bodies[cid].state, mp, rtol=1e-12)

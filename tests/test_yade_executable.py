@@ -2,7 +2,7 @@
 
 ``yade`` runs Debian's /usr/bin/python3 without the project venv and without the script's folder
 on sys.path, so a script must put the repository root on sys.path itself (as
-examples/yade_paper_dimer.py does); or be run as ``.venv/bin/python /usr/bin/yade -n -x script.py``.
+examples/yade_paper_dimer.py does); or be run as ``.venv/bin/python /usr/bin/yade -n -x script.py`` (here: the venv running pytest).
 """
 import json
 import os
@@ -54,7 +54,8 @@ def _run(cmd, script, tmp_path):
 def test_clumps_in_yade_executable(tmp_path, launcher):
     script = tmp_path / "build.py"
     script.write_text(SCRIPT.format(root=str(ROOT), save=str(tmp_path / "s.yade.gz")))
-    cmd = [YADE, "-n", "-x"] if launcher == "yade" else [str(ROOT / ".venv/bin/python"), YADE, "-n", "-x"]
+    # the venv running the tests (.venv, or .venv-debian13 inside the Debian 13 root)
+    cmd = [YADE, "-n", "-x"] if launcher == "yade" else [sys.executable, YADE, "-n", "-x"]
     out = _run(cmd, script, tmp_path)
     line = [l for l in out.splitlines() if l.startswith("RESULT ")][-1]
     res = json.loads(line[len("RESULT "):])
@@ -69,6 +70,5 @@ def test_readme_example_runs_in_yade(tmp_path):
 
 
 def test_readme_example_runs_with_plain_python(tmp_path):
-    py = ROOT / ".venv/bin/python"
-    out = _run([str(py) if py.exists() else sys.executable], ROOT / "examples" / "yade_paper_dimer.py", tmp_path)
+    out = _run([sys.executable], ROOT / "examples" / "yade_paper_dimer.py", tmp_path)
     assert "append_clump vs library" in out
