@@ -595,6 +595,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pairs", type=int, default=2000, help="collisions per shape (default 2000)")
     ap.add_argument("--factors", default="0.0625,0.125,0.25,0.5,1.0,1.5", help="dt factors of the collision map")
+    ap.add_argument("--factors-of", action="append", default=[], metavar="SHAPE=F1,F2,...",
+                    help="dt factors of one shape's collision map (overrides --factors for it)")
     ap.add_argument("--shapes", default="dimer,trimer", help=f"of {','.join(SHAPES)}")
     ap.add_argument("--seed", type=int, default=8)
     ap.add_argument("--no-gas", action="store_true", help="skip the gas energy-drift runs")
@@ -620,12 +622,15 @@ def main(argv=None):
         tmp_obj = tempfile.TemporaryDirectory(prefix="clumpprops-dt-")
         workdir = tmp_obj.name
     t_start, c_start = time.time(), cpu_children()
-    result = {"argv": sys.argv[1:], "pairs": a.pairs, "factors": factors, "material": MATERIAL,
+    result = {"argv": sys.argv[1:], "pairs": a.pairs, "material": MATERIAL,
               "energy_per_particle": ENERGY, "d_tol": D_TOL, "energy_tol": E_TOL, "shapes": {}, "decision": {}}
     cpu_study = 0.0
     for key in a.shapes.split(","):
         cfg = SHAPES[key]
         an = None
+        own = dict(x.split("=", 1) for x in a.factors_of)
+        factors = [float(x) for x in own[key].split(",")] if key in own else \
+            [float(x) for x in a.factors.split(",")]
         if not a.no_map:
             inp = make_pairs(cfg["shape"], a.pairs, a.seed)
             runs = {}
