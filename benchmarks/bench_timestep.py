@@ -1,7 +1,11 @@
 """Time-step convergence of the gas studies (issue 8): the collision map and the gas's energy drift.
 
-    .venv/bin/python benchmarks/bench_timestep.py                      # the full study (~10 CPU-min)
-    .venv/bin/python benchmarks/bench_timestep.py --pairs 100 --no-gas  # a quick look (~1 min)
+    .venv/bin/python benchmarks/bench_timestep.py                      # the full study (~17 CPU-min)
+    .venv/bin/python benchmarks/bench_timestep.py --pairs 100 --no-gas  # a quick look (~1 CPU-min)
+
+The committed benchmarks/results/timestep.json (see its "argv") came from
+    --factors-of trimer=0.0625,0.25,0.5,1.0,1.5,2.0 --bias 400,8 --bias-factors 0.5,1.0,1.5 --workdir DIR
+(`--workdir` keeps every run; a repeated invocation reuses them, so parts can run in parallel).
 
 The issue asks for D and the energy drift at dt factors 0.25, 0.5 and 1.0 (dt = factor x
 r_min sqrt(rho/E)), and for the largest factor whose D differs from the smallest factor's by
@@ -70,11 +74,6 @@ SHAPES = {
 def cpu_children():
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
-
-
-def p_wave_dt(shape):
-    props = shp.properties(shape, MATERIAL["density"])
-    return min(props["radii"]) * math.sqrt(MATERIAL["density"] / MATERIAL["youngs_modulus"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -390,7 +389,6 @@ def energy_bias(key, n_geom, phases, factors, seed, workdir):
         w = np.asarray(inp["angvel"])
         n2 = len(pos)
         lat = np.asarray(inp["lattice"])
-        big = []
         k3 = int(math.ceil((n_geom * phases) ** (1 / 3)))
         grid = np.stack(np.unravel_index(np.arange(n_geom * phases), (k3, k3, k3)), 1) * inp["spacing"]
         P, V, Rm, W = [], [], [], []
@@ -594,7 +592,7 @@ def decide(key, a, g):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pairs", type=int, default=2000, help="collisions per shape (default 2000)")
-    ap.add_argument("--factors", default="0.0625,0.125,0.25,0.5,1.0,1.5", help="dt factors of the collision map")
+    ap.add_argument("--factors", default="0.0625,0.125,0.25,0.5,1.0,1.5,2.0", help="dt factors of the collision map")
     ap.add_argument("--factors-of", action="append", default=[], metavar="SHAPE=F1,F2,...",
                     help="dt factors of one shape's collision map (overrides --factors for it)")
     ap.add_argument("--shapes", default="dimer,trimer", help=f"of {','.join(SHAPES)}")
