@@ -1,0 +1,95 @@
+"""The time-step study's collision map (benchmarks/bench_timestep.py): the sampled collisions
+follow the gas's distributions, a head-on dimer collision ends as the exact 1-D elastic
+exchange with a second-order energy error, and free rotation of the triangle trimer on
+YADE 2025.2 keeps its energy and angular momentum to second order once the initial angular
+velocity is carried back half a step (a few seconds of YADE each)."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT))
+
+import bench_timestep as bt  # noqa: E402
+
+
+def test_pairs_follow_the_gas_distributions():
+    for key, dof in (("dimer", 2), ("trimer", 3)):
+        inp = bt.make_pairs(bt.SHAPES[key]["shape"], 20000, seed=3)
+        m = inp["body"]["mass"]
+        kT = inp["kT"]
+        assert inp["rot_dof"] == dof and kT == pytest.approx(2 * bt.ENERGY / (3 + dof))
+        v = np.asarray(inp["vel"])
+        g = v[0::2] - v[1::2]
+        x = 0.5 * (m / 2) * np.sum(g ** 2, 1) / kT          # Gamma(2, 1): mean 2, variance 2
+        assert abs(x.mean() - 2) < 4 * math.sqrt(2 / len(x))
+        assert np.allclose(v[0::2] + v[1::2], 0)               # centre of mass at rest
+        p = np.asarray(inp["pos"])
+        sep = p[1::2] - p[0::2]
+        assert np.all(np.linalg.norm(sep, axis=1) > 2 * inp["bounding_radius"])   # apart at the start
+        assert np.all(np.einsum("ij,ij->i", sep, g) > 0)         # on collision courses
+        b = np.asarray(inp["b"])
+        assert abs(np.mean(b ** 2) / (2 * inp["bounding_radius"]) ** 2 - 0.5) < 0.01   # uniform over the disc
+        ori = np.asarray(inp["ori"]).reshape(-1, 3, 3)
+        w = np.einsum("nji,nj->ni", ori, np.asarray(inp["angvel"]))   # body frame
+        pm = bt.shp.properties(bt.SHAPES[key]["shape"], bt.MATERIAL["density"])["exact"]["principal_moments"]
+        # body-frame moments: the dimer's axis is body z (I_axial, the smallest, is on z), the
+        # triangle lies in the body xy plane (ascending moments on x, y, z)
+        I = np.array([pm[2], pm[2], pm[0]]) if key == "dimer" else np.asarray(pm)
+        erot = 0.5 * np.sum(I * w ** 2, 1)
+        assert abs(erot.mean() / (dof * kT / 2) - 1) < 0.03     # equipartition
+        if key == "dimer":
+            assert np.max(np.abs(w[:, 2])) < 1e-12               # no spin about the axis (round-off)
+        lat = np.asarray(inp["lattice"])
+        d = np.linalg.norm(lat[:, None] - lat[None, :200], axis=2)
+        assert np.min(d[d > 0]) >= inp["spacing"] - 1e-9
+
+
+def _head_on(g=2.0):
+    """One pair of paper dimers, axes along the course, centres on it: a 1-D sphere collision."""
+    inp = bt.make_pairs(bt.SHAPES["dimer"]["shape"], 1, seed=1)
+    r_b = inp["bounding_radius"]
+    inp["pos"] = [[0.0, 0.0, -r_b - 0.01], [0.0, 0.0, r_b + 0.01]]
+    inp["ori"] = [list(np.eye(3).ravel())] * 2
+    inp["vel"] = [[0.0, 0.0, g / 2], [0.0, 0.0, -g / 2]]
+    inp["angvel"] = [[0.0, 0.0, 0.0]] * 2
+    inp["t_max"] = 1.0
+    return inp
+
+
+def test_head_on_dimers_exchange_velocities_with_second_order_energy_error(tmp_path):
+    inp = _head_on()
+    res = {}
+    for f in (0.5, 1.0):
+        out = bt.run_map(inp, f, "2023.02a", str(tmp_path), "headon")
+        assert out["done"] and out["touched"] == [True] and out["yade_version"].startswith("2023")
+        res[f] = bt.outcome(inp, out)
+        v = np.asarray(out["vel"])
+        assert np.allclose(v[:, :2], 0, atol=1e-12)              # stays on the line
+        assert res[f]["q"][0] == pytest.approx(2.0, abs=2e-3)    # g' = -g
+    e1, e05 = abs(res[1.0]["de_rel"][0]), abs(res[0.5]["de_rel"][0])
+    assert e1 < 2e-3 and e05 < e1 / 2.5                         # second order (ratio ~4)
+
+
+def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
+    """Two trimers moving apart with equipartition spin: nothing touches; |dL|, dE only from the
+    integrator's free rotation (delValle2023 started half a step back)."""
+    inp = bt.make_pairs(bt.SHAPES["trimer"]["shape"], 1, seed=5)
+    v = np.asarray(inp["vel"])
+    inp["vel"] = (-v).tolist()                                    # receding: no collision
+    inp["angvel"] = (np.asarray(inp["angvel"]) * 3).tolist()      # ~ 3x thermal spin
+    inp["t_max"] = 0.3
+    inp["check_interval"] = 0.3
+    errs = {}
+    for f in (0.5, 1.0):
+        out = bt.run_map(inp, f, "2025.2", str(tmp_path), "free")
+        assert out["rot_algorithm"] == "delValle2023" and out["touched"] == [False]
+        o = bt.outcome(inp, out)
+        L0 = np.abs(np.asarray(inp["angvel"])).max() * 0.01
+        errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
+        assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
+    assert errs[1.0] < 1e-4 and errs[0.5] < errs[1.0] / 3         # second order
