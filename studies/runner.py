@@ -44,6 +44,9 @@ def write_atomic(path, text):
         f.write(text)
         f.flush()
         os.fsync(f.fileno())
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)          # mkstemp makes 0600; results are ordinary files
     os.replace(tmp, path)
 
 
