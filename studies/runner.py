@@ -180,8 +180,11 @@ def execute(run, settings):
                     _progress(prog, name=run["name"], t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running")
                 if settings.get("timeout") and time.time() - t0 > settings["timeout"]:
                     os.killpg(p.pid, signal.SIGKILL)
-            rc = p.wait()
+            p.stdout.close()
+            _, status, usage = os.wait4(p.pid, 0)       # the YADE process's own CPU time
+            rc = p.returncode = os.waitstatus_to_exitcode(status)
         wall = time.time() - t0
+        cpu = usage.ru_utime + usage.ru_stime
         if rc != 0 or not os.path.exists(prefix + ".json"):
             with open(log_path, errors="replace") as f:
                 tail = f.read()[-1500:]
@@ -196,7 +199,7 @@ def execute(run, settings):
         rec.update(key=run["key"], name=run["name"], shape=run["shape"], case=run["case"],
                    protocol=run["protocol"], seed=run["seed"], params=params, facts=facts,
                    yade_version=facts["yade_version"], rot_algorithm=facts["rot_algorithm"],
-                   host=socket.gethostname(), wall_s=wall, git_commit=commit, git_dirty=dirty,
+                   host=socket.gethostname(), wall_s=wall, cpu_s=cpu, git_commit=commit, git_dirty=dirty,
                    box_length=rin["box_length"], rot_dof=rin["rot_dof"], case_body=rin["case"],
                    exact_mass=rin["exact_mass"], python=sys.version.split()[0])
         if settings.get("keep_raw"):
