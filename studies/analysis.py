@@ -41,7 +41,7 @@ import time
 
 import numpy as np
 
-from . import design, engine
+from . import design, engine, runner
 from .estimators import ols_msd as fit_d, t_interval
 from . import spec as S
 
@@ -295,10 +295,7 @@ def analyze(spec, log=print):
         "wall_run_s_total": float(sum(r["facts"]["wall_run_s"] for _, _, r in runs)),
     }
     params["wall_analysis_s"] = time.time() - t0
-    tmp = os.path.join(out, f"params.json.tmp{os.getpid()}")
-    with open(tmp, "w") as f:
-        json.dump(params, f, indent=1, default=float)
-    os.replace(tmp, os.path.join(out, "params.json"))
+    runner.write_atomic(os.path.join(out, "params.json"), json.dumps(params, indent=1, default=float))
     log(f"[analyze] {len(good)} runs used, {len(bad)} excluded, {len(missing)} missing; "
         f"{time.time() - t0:.0f} s; tables in {out}")
     for r in prow:
