@@ -5,7 +5,7 @@
 #    and has clumpprops installed in editable mode (console script `clumpprops`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PKGS="yade python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
+PKGS="yade python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools python3-pybind11 python3-dev g++"
 missing=""
 for p in $PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
@@ -21,6 +21,13 @@ YADE_PY=/usr/lib/x86_64-linux-gnu/yade-double/py
 if [ ! -x .venv/bin/python ]; then
   echo "[setup] creating .venv from /usr/bin/python3 (with Debian's site packages)"
   /usr/bin/python3 -m venv --system-site-packages .venv
+fi
+# the compiled core (C++17 header clumpprops/core/clumpprops.hpp + pybind11 module): built in
+# place, beside the sources, when missing or older than them
+EXT=$(.venv/bin/python -c 'import sysconfig; print("clumpprops/core/_core" + sysconfig.get_config_var("EXT_SUFFIX"))')
+if [ ! -f "$EXT" ] || [ -n "$(find clumpprops/core/clumpprops.hpp clumpprops/core/_core.cpp setup.py -newer "$EXT")" ]; then
+  echo "[setup] building the compiled core ($EXT)"
+  .venv/bin/python setup.py -q build_ext --inplace >/dev/null
 fi
 SITE=$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 echo "$YADE_PY" > "$SITE/yade_double.pth"
