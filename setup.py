@@ -8,7 +8,7 @@ import os
 from pybind11.setup_helpers import Pybind11Extension
 from setuptools import setup
 
-flags = ["-O2", "-fno-math-errno"]
+flags = ["-O3", "-fno-math-errno"]
 link = []
 if os.environ.get("CLUMPPROPS_SANITIZE"):
     flags = ["-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined", "-fno-sanitize-recover=undefined"]

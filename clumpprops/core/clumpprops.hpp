@@ -47,6 +47,7 @@ struct Cap {
   int owner, other;  // cap cut on sphere `owner` by sphere `other`
   double n[3];       // unit axis towards `other`
   double h, rho;     // cap u.n > h on the unit sphere, rho = sqrt(1 - h^2) (from factored forms)
+  double alpha;      // angular radius atan2(rho, h) (set by prune_caps)
 };
 
 // Triple overlap found by the pairwise method's check (local sphere indices, sorted).
@@ -149,12 +150,13 @@ inline void sum_moments(const double* c, const double* r, int n, Moments& m) {
 
 // ------------------------------------------------------------------ unit-sphere moments -> volume moments
 // Moments of the exposed region E of one unit sphere: a = int_E 1, m1 = int_E u, m2 = int_E u u^T,
-// m3 = int_E u u u (dOmega).  Volume moments (divergence theorem, docs/exact_method.md sec. 1).
+// and m3 = int_E u u u (dOmega) contracted with the sphere centre c: m3c_xy = sum_z m3_xyz c_z
+// (the only way m3 enters).  Volume moments (divergence theorem, docs/exact_method.md sec. 1).
 struct SurfaceMoments {
   double a;
   double m1[3];
   double m2[9];
-  double m3[27];
+  double m3c[9];
 };
 
 inline void add_from_surface(const double* c, double r, const SurfaceMoments& s, Moments& out) {
@@ -168,15 +170,14 @@ inline void add_from_surface(const double* c, double r, const SurfaceMoments& s,
   const double f = r2 / 5.0;
   for (int x = 0; x < 3; ++x)
     for (int y = 0; y < 3; ++y) {
-      const double* t = s.m3 + 9 * x + 3 * y;
-      const double m3c = t[0] * c[0] + t[1] * c[1] + t[2] * c[2];
+      const double m3c = s.m3c[3 * x + y];
       out.Q[3 * x + y] += f * (c[x] * c[y] * base + r2 * (c[x] * s.m1[y] + s.m1[x] * c[y]) +
                                r * (c[x] * m2c[y] + m2c[x] * c[y]) + r2 * r * s.m2[3 * x + y] + r2 * m3c);
     }
 }
 
 // the unit sphere minus one cap u.n > h, closed form (docs/exact_method.md; 1 - h from rho^2/(1+h))
-inline void single_cap(const double* n, double h, double rho, SurfaceMoments& s) {
+inline void single_cap(const double* n, double h, double rho, const double* c, SurfaceMoments& s) {
   const double w = h > 0.0 ? rho * rho / (1.0 + h) : 1.0 - h;  // 1 - h
   const double oph = 2.0 - w;
   const double one_m_h2 = w * oph;
@@ -193,16 +194,15 @@ inline void single_cap(const double* n, double h, double rho, SurfaceMoments& s)
     }
   const double alpha = 0.5 * kPi * one_m_h4;
   const double beta = kPi * (0.5 * one_m_h2 - 0.25 * one_m_h4);
+  // m3 = -(alpha n n n + beta sym(n P)), sym(n P)_xyz = n_x P_yz + n_y P_xz + n_z P_xy; contracted with c
+  const double nc = dot3(n, c);
+  double Pc[3];
+  for (int x = 0; x < 3; ++x) Pc[x] = c[x] - n[x] * nc;
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y)
-      for (int z = 0; z < 3; ++z) {
-        // sym(n P)_xyz = n_x P_yz + n_y P_xz + n_z P_xy
-        const double Pyz = (y == z ? 1.0 : 0.0) - n[y] * n[z];
-        const double Pxz = (x == z ? 1.0 : 0.0) - n[x] * n[z];
-        const double Pxy = (x == y ? 1.0 : 0.0) - n[x] * n[y];
-        const double sym = n[x] * Pyz + n[y] * Pxz + n[z] * Pxy;
-        s.m3[9 * x + 3 * y + z] = -(alpha * n[x] * n[y] * n[z] + beta * sym);
-      }
+    for (int y = 0; y < 3; ++y) {
+      const double Pxy = (x == y ? 1.0 : 0.0) - n[x] * n[y];
+      s.m3c[3 * x + y] = -(alpha * n[x] * n[y] * nc + beta * (n[x] * Pc[y] + n[y] * Pc[x] + nc * Pxy));
+    }
 }
 
 // ------------------------------------------------------------------ the arrangement of caps on one sphere
@@ -244,7 +244,7 @@ class Arrangement {
   }
 
   // caps: K caps of one sphere, sorted by `other` (their rank for ties)
-  void compute(const Cap* caps, int K, SurfaceMoments& out);
+  void compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out);
 
  private:
   void choose_pole(int K, double* q);
@@ -277,8 +277,10 @@ inline void Arrangement::choose_pole(int K, double* q) {
       {-0.5773502691896258, -0.5773502691896258, -0.5773502691896258},
       {-0.5773502691896258, 0.5773502691896258, -0.5773502691896258}};
   static const double deltas[3] = {0.35, 0.15, 0.05};
-  for (double delta : deltas) {
-    const double cd = std::cos(delta), sd = std::sin(delta);
+  static const double cosd[3] = {std::cos(0.35), std::cos(0.15), std::cos(0.05)};
+  static const double sind[3] = {std::sin(0.35), std::sin(0.15), std::sin(0.05)};
+  for (int di = 0; di < 3; ++di) {
+    const double delta = deltas[di], cd = cosd[di], sd = sind[di];
     for (const auto& qq : cand) {
       bool ok = true;
       for (int k = 0; k < K && ok; ++k) {
@@ -315,14 +317,14 @@ inline void Arrangement::choose_pole(int K, double* q) {
   q[2] = cand[ib][2];
 }
 
-inline void Arrangement::compute(const Cap* caps, int K, SurfaceMoments& out) {
+inline void Arrangement::compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out) {
   C.resize(K);
   for (int k = 0; k < K; ++k) {
     Circle& c = C[k];
     for (int x = 0; x < 3; ++x) c.n[x] = caps[k].n[x];
     c.h = caps[k].h;
     c.rho = caps[k].rho;
-    c.alpha = std::atan2(c.rho, c.h);
+    c.alpha = caps[k].alpha;
     c.rank = caps[k].other;
     basis(c.n, c.e1, c.e2);
   }
@@ -410,7 +412,7 @@ inline void Arrangement::compute(const Cap* caps, int K, SurfaceMoments& out) {
   choose_pole(K, q);
   double area_U = 0.0;
   bool in_U = false;
-  double J1[3] = {0, 0, 0}, J2[9] = {0}, J3[27] = {0};
+  double J1[3] = {0, 0, 0}, J2s[9] = {0}, K3[9] = {0};
   for (int k = 0; k < K; ++k) {
     const Circle& ck = C[k];
     if (-dot3(q, ck.n) > ck.h) in_U = true;
@@ -486,69 +488,66 @@ inline void Arrangement::compute(const Cap* caps, int K, SurfaceMoments& out) {
     const double Icc = 0.5 * Dt + 0.25 * S2, Iss = 0.5 * Dt - 0.25 * S2;
     // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
     area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
-    // u(t) = U0 + U1 cos t + U2 sin t, nu = N0 + N1 cos t + N2 sin t
-    double U[3][3], N[3][3];
-    for (int x = 0; x < 3; ++x) {
-      U[0][x] = ck.h * ck.n[x];
-      U[1][x] = ck.rho * ck.e1[x];
-      U[2][x] = ck.rho * ck.e2[x];
-      N[0][x] = -(ck.rho * ck.rho) * ck.n[x];
-      N[1][x] = (ck.h * ck.rho) * ck.e1[x];
-      N[2][x] = (ck.h * ck.rho) * ck.e2[x];
-    }
+    // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
+    // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho).  Then
+    //   J1 = sum_p W1_p a_p E_p,   J2 = sum_pq W2_pq a_p b_q E_p (x) E_q,   J3 = sum_pqr W3_pqr a_p b_q b_r E_p E_q E_r,
+    // and m3 enters only contracted with the sphere centre c (local coordinates cl):
+    //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,
+    //   Lk_xy = a_x tc_xy + a_y tc_yx + b_x b_y sum_p a_p cl_p W3_pxy,  tc_pq = b_q sum_r W3_pqr b_r cl_r.
     const double W1[3] = {Dt, Ic, Is};
     const double W2[3][3] = {{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}};
-    double W3[3][3][3];
-    {
-      // symmetric: index multiset -> value
-      const double v000 = Dt, v001 = Ic, v002 = Is, v011 = Icc, v012 = Ics, v022 = Iss, v111 = Iccc, v112 = Iccs,
-                   v122 = Icss, v222 = Isss;
-      for (int p = 0; p < 3; ++p)
-        for (int qq = 0; qq < 3; ++qq)
-          for (int r = 0; r < 3; ++r) {
-            int cnt[3] = {0, 0, 0};
-            ++cnt[p];
-            ++cnt[qq];
-            ++cnt[r];
-            double v;
-            if (cnt[0] == 3) v = v000;
-            else if (cnt[0] == 2) v = cnt[1] ? v001 : v002;
-            else if (cnt[0] == 1) v = cnt[1] == 2 ? v011 : (cnt[2] == 2 ? v022 : v012);
-            else v = cnt[1] == 3 ? v111 : (cnt[1] == 2 ? v112 : (cnt[1] == 1 ? v122 : v222));
-            W3[p][qq][r] = v;
-          }
+    const double W3[3][3][3] = {{{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}},
+                                {{Ic, Icc, Ics}, {Icc, Iccc, Iccs}, {Ics, Iccs, Icss}},
+                                {{Is, Ics, Iss}, {Ics, Iccs, Icss}, {Iss, Icss, Isss}}};
+    const double av[3] = {-(ck.rho * ck.rho), ck.h * ck.rho, ck.h * ck.rho};
+    const double bv[3] = {ck.h, ck.rho, ck.rho};
+    const double* Ef[3] = {ck.n, ck.e1, ck.e2};
+    const double cl[3] = {dot3(ck.n, centre), dot3(ck.e1, centre), dot3(ck.e2, centre)};
+    double bc[3], ac[3];
+    for (int r = 0; r < 3; ++r) {
+      bc[r] = bv[r] * cl[r];
+      ac[r] = av[r] * cl[r];
     }
-    for (int x = 0; x < 3; ++x) J1[x] += W1[0] * N[0][x] + W1[1] * N[1][x] + W1[2] * N[2][x];
-    // T[p][y] = sum_q W2[p][q] U[q][y]
-    for (int p = 0; p < 3; ++p) {
-      double T[3];
-      for (int y = 0; y < 3; ++y) T[y] = W2[p][0] * U[0][y] + W2[p][1] * U[1][y] + W2[p][2] * U[2][y];
-      for (int x = 0; x < 3; ++x)
-        for (int y = 0; y < 3; ++y) J2[3 * x + y] += N[p][x] * T[y];
-    }
-    for (int p = 0; p < 3; ++p) {
-      double T[9];  // T[y][z] = sum_qr W3[p][q][r] U[q][y] U[r][z]
+    double tc[3][3];
+    for (int p = 0; p < 3; ++p)
+      for (int qq = 0; qq < 3; ++qq) tc[p][qq] = bv[qq] * (W3[p][qq][0] * bc[0] + W3[p][qq][1] * bc[1] + W3[p][qq][2] * bc[2]);
+    double L2[3][3], Lk[3][3];
+    for (int x = 0; x < 3; ++x)
       for (int y = 0; y < 3; ++y) {
-        double V3[3];  // sum_q W3[p][q][r] U[q][y] for each r
-        for (int r = 0; r < 3; ++r) V3[r] = W3[p][0][r] * U[0][y] + W3[p][1][r] * U[1][y] + W3[p][2][r] * U[2][y];
-        for (int z = 0; z < 3; ++z) T[3 * y + z] = V3[0] * U[0][z] + V3[1] * U[1][z] + V3[2] * U[2][z];
+        L2[x][y] = W2[x][y] * (av[x] * bv[y] + av[y] * bv[x]);  // J2 + J2^T (W2 is symmetric)
+        Lk[x][y] = av[x] * tc[x][y] + av[y] * tc[y][x] +
+                   bv[x] * bv[y] * (ac[0] * W3[0][x][y] + ac[1] * W3[1][x][y] + ac[2] * W3[2][x][y]);
       }
-      for (int x = 0; x < 3; ++x)
-        for (int yz = 0; yz < 9; ++yz) J3[9 * x + yz] += N[p][x] * T[yz];
-    }
+    for (int p = 0; p < 3; ++p)
+      for (int x = 0; x < 3; ++x) J1[x] += W1[p] * av[p] * Ef[p][x];
+    // rotate the two symmetric local matrices to the sphere's axes: M = sum_pq L_pq E_p E_q^T
+    double RS[3][3], RK[3][3];
+    for (int p = 0; p < 3; ++p)
+      for (int j = 0; j < 3; ++j) {
+        RS[p][j] = L2[p][0] * Ef[0][j] + L2[p][1] * Ef[1][j] + L2[p][2] * Ef[2][j];
+        RK[p][j] = Lk[p][0] * Ef[0][j] + Lk[p][1] * Ef[1][j] + Lk[p][2] * Ef[2][j];
+      }
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) {
+        J2s[3 * i + j] += Ef[0][i] * RS[0][j] + Ef[1][i] * RS[1][j] + Ef[2][i] * RS[2][j];
+        K3[3 * i + j] += Ef[0][i] * RK[0][j] + Ef[1][i] * RK[1][j] + Ef[2][i] * RK[2][j];
+      }
   }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < i; ++j) {
+      J2s[3 * i + j] = J2s[3 * j + i];
+      K3[3 * i + j] = K3[3 * j + i];
+    }
   const double a = kFourPi - (area_U + (in_U ? kFourPi : 0.0));
   out.a = a;
   for (int x = 0; x < 3; ++x) out.m1[x] = 0.5 * J1[x];
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y) out.m2[3 * x + y] = (x == y ? a / 3.0 : 0.0) + (J2[3 * x + y] + J2[3 * y + x]) / 6.0;
+    for (int y = 0; y < 3; ++y) out.m2[3 * x + y] = (x == y ? a / 3.0 : 0.0) + J2s[3 * x + y] / 6.0;
+  // m3 c = [sym(J3) + T(J1)] c / 12, T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
+  const double J1c = dot3(J1, centre);
   for (int x = 0; x < 3; ++x)
     for (int y = 0; y < 3; ++y)
-      for (int z = 0; z < 3; ++z) {
-        const double sym = J3[9 * x + 3 * y + z] + J3[9 * y + 3 * x + z] + J3[9 * z + 3 * x + y];
-        const double T = (x == y ? J1[z] : 0.0) + (x == z ? J1[y] : 0.0) + (y == z ? J1[x] : 0.0);
-        out.m3[9 * x + 3 * y + z] = (sym + T) / 12.0;
-      }
+      out.m3c[3 * x + y] = (K3[3 * x + y] + (x == y ? J1c : 0.0) + centre[x] * J1[y] + centre[y] * J1[x]) / 12.0;
 }
 
 // ------------------------------------------------------------------ the exact method
@@ -592,8 +591,8 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
       if (h_b < 0.0) w.buried[p.b] = 1;
       continue;
     }
-    Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a};
-    Cap cb{p.b, p.a, {-p.e[0], -p.e[1], -p.e[2]}, h_b, rho_b};
+    Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a, 0.0};
+    Cap cb{p.b, p.a, {-p.e[0], -p.e[1], -p.e[2]}, h_b, rho_b, 0.0};
     w.caps.push_back(ca);
     w.caps.push_back(cb);
   }
@@ -626,12 +625,13 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
   if (K < 2) return K;
   w.alpha.resize(K);
   w.drop.assign(K, 0);
-  for (int k = 0; k < K; ++k) w.alpha[k] = std::atan2(caps[k].rho, caps[k].h);
+  for (int k = 0; k < K; ++k) w.alpha[k] = caps[k].alpha = std::atan2(caps[k].rho, caps[k].h);
   auto inside = [&](int j, int k) {  // cap j within cap k
     const double room = w.alpha[k] - w.alpha[j];
     if (room < 0.0) return false;
     const double d = dot3(caps[j].n, caps[k].n);
-    if (d < std::cos(std::min(room, kPi)) - 1e-9) return false;  // clearly apart: skip the atan2
+    // theta <= room needs cos(theta) >= cos(alpha_k - alpha_j) = h_k h_j + rho_k rho_j: clearly apart, skip the atan2
+    if (d < caps[k].h * caps[j].h + caps[k].rho * caps[j].rho - 1e-9) return false;
     const double* a = caps[j].n;
     const double* b = caps[k].n;
     const double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
@@ -665,9 +665,9 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
     }
     K = prune_caps(caps, K, w);
     if (K == 1)
-      single_cap(caps[0].n, caps[0].h, caps[0].rho, s);
+      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, s);
     else
-      w.arr.compute(caps, K, s);
+      w.arr.compute(caps, K, c + 3 * i, s);
     add_from_surface(c + 3 * i, r[i], s, out);
   }
 }
@@ -829,8 +829,8 @@ inline void eigh3(const double* Ain, double* w, double* V) {
       for (int q = p + 1; q < 3; ++q) {
         const double apq = a[p][q];
         const double g = 100.0 * std::fabs(apq);
-        // after a few sweeps, an element below round-off of both diagonal entries is zero
-        if (sweep > 3 && std::fabs(a[p][p]) + g == std::fabs(a[p][p]) && std::fabs(a[q][q]) + g == std::fabs(a[q][q])) {
+        // an element below round-off of both diagonal entries is zero (its rotation would not change them)
+        if (std::fabs(a[p][p]) + g == std::fabs(a[p][p]) && std::fabs(a[q][q]) + g == std::fabs(a[q][q])) {
           a[p][q] = a[q][p] = 0.0;
           continue;
         }
@@ -870,6 +870,47 @@ inline void eigh3(const double* Ain, double* w, double* V) {
     for (int r = 0; r < 3; ++r) V[3 * r + 2] = -V[3 * r + 2];
 }
 
+// Principal moments and axes of a body symmetric about the unit axis e (one sphere, two spheres):
+// its inertia is A 1 + B e e^T, so e is an axis with moment e.I.e and every perpendicular direction
+// has (tr I - e.I.e)/2.  Closed form, to round-off of I; ascending and right-handed like eigh3.
+inline void eigh3_axisymmetric(const double* I, const double* e, double* w, double* V) {
+  double Ie[3];
+  for (int x = 0; x < 3; ++x) Ie[x] = I[3 * x] * e[0] + I[3 * x + 1] * e[1] + I[3 * x + 2] * e[2];
+  const double ax = dot3(e, Ie);
+  const double perp = 0.5 * ((I[0] + I[4] + I[8]) - ax);
+  double e1[3], e2[3];
+  // basis perpendicular to e (as Arrangement::basis)
+  double t[3] = {1.0, 0.0, 0.0};
+  if (!(std::fabs(e[0]) < 0.9)) {
+    t[0] = 0.0;
+    t[1] = 1.0;
+  }
+  const double d = dot3(t, e);
+  for (int x = 0; x < 3; ++x) e1[x] = t[x] - d * e[x];
+  const double l = std::sqrt(dot3(e1, e1));
+  for (int x = 0; x < 3; ++x) e1[x] /= l;
+  e2[0] = e[1] * e1[2] - e[2] * e1[1];
+  e2[1] = e[2] * e1[0] - e[0] * e1[2];
+  e2[2] = e[0] * e1[1] - e[1] * e1[0];
+  // columns: (e1, e2, e) is right-handed; ascending order
+  const double* cols[3];
+  if (ax <= perp) {
+    w[0] = ax;
+    w[1] = w[2] = perp;
+    cols[0] = e;
+    cols[1] = e1;
+    cols[2] = e2;  // (e, e1, e2) is right-handed too
+  } else {
+    w[0] = w[1] = perp;
+    w[2] = ax;
+    cols[0] = e1;
+    cols[1] = e2;
+    cols[2] = e;
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) V[3 * r + k] = cols[k][r];
+}
+
 enum Status : int { kOk = 0, kOverflow = 1, kNonPositiveVolume = 2, kTriple = 3, kBadInput = 4 };
 
 struct Result {
@@ -877,7 +918,9 @@ struct Result {
 };
 
 // moments about the clump origin -> mass properties (docs: _properties.finish)
-inline Status finish(const Moments& m, const double* origin, double density, bool principal, Result& res) {
+// axis: if not null, the body is symmetric about this unit axis (principal axes in closed form)
+inline Status finish(const Moments& m, const double* origin, double density, bool principal, Result& res,
+                     const double* axis = nullptr) {
   bool finite = std::isfinite(m.V);
   for (int x = 0; x < 3; ++x) finite = finite && std::isfinite(m.S[x]);
   for (int x = 0; x < 9; ++x) finite = finite && std::isfinite(m.Q[x]) && std::isfinite(m.Q[x] * density);
@@ -900,7 +943,12 @@ inline Status finish(const Moments& m, const double* origin, double density, boo
   for (int x = 0; x < 3; ++x) res.com[x] = origin[x] + d[x];
   res.mass = density * m.V;
   res.volume = m.V;
-  if (principal) eigh3(res.inertia, res.moments, res.axes);
+  if (principal) {
+    if (axis)
+      eigh3_axisymmetric(res.inertia, axis, res.moments, res.axes);
+    else
+      eigh3(res.inertia, res.moments, res.axes);
+  }
   return kOk;
 }
 
@@ -949,7 +997,22 @@ struct Engine {
       default:
         sum_moments(rel.data(), r, n, mom);
     }
-    return finish(mom, origin, density, principal, res);
+    // one sphere or two: symmetric about the line of centres
+    const double* axis = nullptr;
+    double e[3] = {0.0, 0.0, 1.0};
+    if (n <= 2) {
+      if (n == 2) {
+        const double dx = c[3] - c[0], dy = c[4] - c[1], dz = c[5] - c[2];
+        const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+        if (D > 0.0) {
+          e[0] = dx / D;
+          e[1] = dy / D;
+          e[2] = dz / D;
+        }
+      }
+      axis = e;
+    }
+    return finish(mom, origin, density, principal, res, axis);
   }
 };
 
