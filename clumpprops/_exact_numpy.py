@@ -45,8 +45,14 @@ from .pairwise import sphere_moments
 _FOUR_PI = 4.0 * np.pi
 # candidate poles: 6 axes, 12 edge and 8 corner directions of a cube, and 6 more
 _POLES = None
-_CHUNK_ELEMENTS = 2_000_000
-_RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (see _caps)  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+_CHUNK_ELEMENTS = 2_000_000  # max elements of the (spheres, K, 2K, K) arc-coverage arrays
+_RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (see _caps)
+# a sphere protruding from another by at most this fraction of the smaller radius is
+# inside it (see _buried_spheres and docs/exact_method.md, section 2a)
+_TAU_NESTED = 1e-13
+# two cap circles on one unit sphere closer than this everywhere are one circle (see
+# _sphere_surface_moments and docs/exact_method.md, section 2a)
+_COINCIDENT = 1e-13
 
 
 def _poles():
@@ -62,6 +68,30 @@ def _poles():
     return _POLES
 
 
+def _buried_spheres(a, b, D, ra, rb, S):
+    """(S,) bool: spheres removed whole because they lie inside another sphere, up to tau.
+
+    Sphere a counts as inside sphere b when its protrusion p_ab = (r_a - r_b) + D (how far
+    ball a reaches out of ball b) is at most _TAU_NESTED * min(r_a, r_b): scale-aware, so
+    a configuration and its image scaled by any factor get the same decision.  The part
+    of ball a outside ball b then has volume < 4 pi r_a^2 p_ab (docs/exact_method.md,
+    section 2a).  When both spheres of a pair count as inside each other (near-identical
+    spheres), exactly one is removed: the one later in the strict order (larger radius
+    first, then lower index), so every removal goes up that order, no cycle can remove
+    both, and the first sphere of the order in each group of near-identical spheres stays.
+    """
+    s = np.minimum(ra, rb)
+    tol = _TAU_NESTED * s
+    a_in_b = (ra - rb) + D <= tol
+    b_in_a = (rb - ra) + D <= tol
+    # a precedes b in the order: larger radius, or the same radius and a < b (always, a < b)
+    a_first = ra >= rb
+    buried = np.zeros(S, bool)
+    buried[a[a_in_b & ~(b_in_a & a_first)]] = True
+    buried[b[b_in_a & ~(a_in_b & ~a_first)]] = True
+    return buried
+
+
 def _caps(sph: Spheres):
     """Caps cut on each sphere by its overlapping neighbours, and the buried spheres.
 
@@ -71,13 +101,9 @@ def _caps(sph: Spheres):
     S = len(sph.radii)
     a, b, D, e = overlapping_pairs(sph)
     ra, rb = sph.radii[a], sph.radii[b]
-    # containment: D + r_small <= r_big; identical spheres: the later index is buried
-    a_in_b = (D + ra <= rb) & ~((D == 0) & (ra == rb))
-    b_in_a = D + rb <= ra
-    buried = np.zeros(S, bool)
-    buried[a[a_in_b]] = True
-    buried[b[b_in_a]] = True
-    keep = ~(a_in_b | b_in_a) & ~buried[a] & ~buried[b]
+    # containment, scale-aware, with one sphere of each near-identical group kept
+    buried = _buried_spheres(a, b, D, ra, rb, S)
+    keep = ~buried[a] & ~buried[b]
     a, b, D, e, ra, rb = a[keep], b[keep], D[keep], e[keep], ra[keep], rb[keep]
     delta = ra + rb - D  # > 0
     # cap on a (towards b): 1 - h_a = l_a / r_a, 1 + h_a = (r_a + D - r_b)(r_a + D + r_b) / (2 r_a D)
@@ -133,10 +159,10 @@ def _basis(n):
     return e1, e2
 
 
-def _sphere_surface_moments(n, h, rho, rank):
+def _sphere_surface_moments(n, h, rho):
     """Moments a, m1, m2, m3 of the exposed region of unit spheres, chunk of C spheres with K caps each.
 
-    n (C,K,3), h (C,K), rho (C,K), rank (C,K) int (tie-break order of identical caps).
+    n (C,K,3), h (C,K), rho (C,K); no two of a sphere's circles coincide (``_uncovered_caps``).
     Returns a (C,), m1 (C,3), m2 (C,3,3), m3 (C,3,3,3).
     """
     C, K = h.shape
@@ -161,6 +187,7 @@ def _sphere_surface_moments(n, h, rho, rank):
     # exactly even where two circles nearly coincide (crossing angles ill-conditioned).
     upper = np.triu(np.ones((K, K), dtype=bool), 1)[None]
     crosses = np.where(upper, crosses, np.swapaxes(crosses, 1, 2))
+    # (no two circles here coincide: _uncovered_caps removed such caps, see _coincident_caps)
 
     def on_other_circle(t):
         ct, st = np.cos(t), np.sin(t)
@@ -235,10 +262,6 @@ def _sphere_surface_moments(n, h, rho, rank):
     for jsel, dec in ((jn, tn == -1), (jq, tq == 1)):
         cur = np.take_along_axis(covered, jsel[..., None], axis=3)[..., 0]
         np.put_along_axis(covered, jsel[..., None], np.where(has_split, dec, cur)[..., None], axis=3)
-    # coincident circles of equally oriented caps: the lower-ranked cap covers the other
-    coincident = (R <= 1e-14) & (np.abs(m) <= 1e-14) & (g > 0)
-    tie = coincident & (rank[:, None, :] < rank[:, :, None])
-    covered |= tie[:, :, None, :]
     covered &= pair[:, :, None, :]
     exposed = arc_ok & ~np.any(covered, axis=3)  # (C,K,Q)
     # --- closed-form arc integrals, summed over each circle's exposed arcs
@@ -377,23 +400,52 @@ def _grouped(owner, other, per_sphere_cost):
             yield order[start[gs][:, None] + np.arange(K)[None, :]]
 
 
-def _uncovered_caps(n, h, rho, rank):
-    """(C,K) bool: caps not contained in another cap of the same sphere (those change nothing).
+def _coincident_caps(n, h, rho):
+    """[c, k, j] bool: circles k and j of one sphere coincide (within _COINCIDENT), and g = n_k.n_j.
 
-    Cap j lies in cap k iff angle(n_j, n_k) + alpha_j <= alpha_k; of two identical caps the
-    lower-ranked one is kept.
+    On circle k, f_kj = u.n_j - h_j = m_kj + R_kj cos(t - phi) with m_kj = h_k g - h_j and
+    R_kj = rho_k |n_k x n_j|; the circles coincide when |f| <= tol all along both of them,
+    |m_kj| + R_kj <= tol and |m_jk| + R_jk <= tol (symmetric, and in units of the sphere's
+    radius: scale-free).  g > 0: the same cap twice; g < 0: complementary caps.
     """
     K = h.shape[1]
+    g = np.einsum("ckx,cjx->ckj", n, n)
+    sin_kj = np.linalg.norm(np.cross(n[:, :, None, :], n[:, None, :, :]), axis=-1)
+    dev = np.abs(h[:, :, None] * g - h[:, None, :]) + rho[:, :, None] * sin_kj
+    near = dev <= _COINCIDENT
+    return near & np.swapaxes(near, 1, 2) & ~np.eye(K, dtype=bool)[None], g
+
+
+def _uncovered_caps(n, h, rho, rank):
+    """Caps that matter: (C,K) bool of caps to keep, and (C,) bool of spheres covered entirely.
+
+    1. Coincident circles (``_coincident_caps``) are one circle, decided once here so that
+       every other circle of the sphere sees a single circle (two copies a round-off apart
+       would each be crossed by a third circle, at points a round-off apart, and a piece
+       of arc between them would be left without the rest of its boundary).  Of equally
+       oriented coincident caps the lowest-ranked is kept; two oppositely oriented ones
+       (complementary caps, e.g. on the middle one of three spheres through one circle)
+       cover the whole sphere up to a band narrower than _COINCIDENT: the sphere is
+       covered entirely and contributes nothing.
+    2. Of the remaining caps, cap j lying in cap k (angle(n_j, n_k) + alpha_j <= alpha_k)
+       is dropped: it changes nothing.  No two remaining caps coincide, so the relation
+       has no cycle and every dropped cap lies in a kept one.
+    """
+    C, K = h.shape
     if K == 1:
-        return np.ones(h.shape, bool)
+        return np.ones(h.shape, bool), np.zeros(C, bool)
+    coincident, g = _coincident_caps(n, h, rho)
+    covered_all = np.any(coincident & (g < 0), axis=(1, 2))
+    lower = rank[:, None, :] < rank[:, :, None]  # [c, k, j]: j ranks before k
+    keep = ~np.any(coincident & (g > 0) & lower, axis=2)
     alpha = np.arctan2(rho, h)
     cross = np.cross(n[:, :, None, :], n[:, None, :, :])
-    theta = np.arctan2(np.linalg.norm(cross, axis=-1), np.einsum("cjx,ckx->cjk", n, n))
+    theta = np.arctan2(np.linalg.norm(cross, axis=-1), g)
     inside = theta + alpha[:, :, None] <= alpha[:, None, :]  # [c, j, k]: cap j within cap k
-    same = inside & np.swapaxes(inside, 1, 2)
-    drop = inside & (~same | (rank[:, None, :] < rank[:, :, None]))
-    drop &= ~np.eye(K, dtype=bool)[None]
-    return ~np.any(drop, axis=2)
+    inside &= ~coincident & keep[:, None, :] & ~np.eye(K, dtype=bool)[None]
+    keep &= ~np.any(inside, axis=2)
+    keep &= ~covered_all[:, None]
+    return keep, covered_all
 
 
 def exact_moments(sph: Spheres):
@@ -423,13 +475,13 @@ def exact_moments(sph: Spheres):
     if len(owner):
         keep = np.zeros(len(owner), bool)
         for rows in _grouped(owner, other, per_sphere_cost=lambda K: K * K + 8):
-            keep[rows] = _uncovered_caps(n[rows], h[rows], rho[rows], other[rows])
+            keep[rows], _ = _uncovered_caps(n[rows], h[rows], rho[rows], other[rows])
         owner, other, n, h, rho = owner[keep], other[keep], n[keep], h[keep], rho[keep]
         for rows in _grouped(owner, other, per_sphere_cost=lambda K: 2 * K * K * K + 64):
             if rows.shape[1] == 1:
                 a, m1, m2, m3 = _single_cap_moments(n[rows[:, 0]], h[rows[:, 0]], rho[rows[:, 0]])
             else:
-                a, m1, m2, m3 = _sphere_surface_moments(n[rows], h[rows], rho[rows], other[rows])
+                a, m1, m2, m3 = _sphere_surface_moments(n[rows], h[rows], rho[rows])
             ids = owner[rows[:, 0]]
             v, s, q = _volume_moments_from_surface(sph.centers[ids], sph.radii[ids], a, m1, m2, m3)
             cl = sph.clump[ids]

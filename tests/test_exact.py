@@ -7,7 +7,8 @@ clump (invariances).  The slicing reference comparisons are in test_exact_refere
 
 The hypothesis strategies include near-degenerate clumps: exactly tangent pairs (built
 from dyadic numbers so D == r1 + r2 holds in floating point) and pairs within 1e-15 of
-tangency, internally tangent spheres, duplicates and near-duplicates (1e-12 offset),
+tangency, internally tangent spheres, duplicates and near-duplicates (1e-12 offset, and
+1e-300 .. 1e-6 of the radius), spheres through one common circle (a pencil),
 four sphere surfaces through one common point, a sphere through a triple point of three
 others, and tiny overlaps.  Examples are derandomized so a run is reproducible.
 """
@@ -17,7 +18,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
@@ -25,11 +26,11 @@ import clumpprops
 from clumpprops import mass_properties
 
 import reference_slicing as rs
+from _profiles import examples
 
 RHO = 1000.0
-SETTINGS = settings(
-    max_examples=50, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
-)
+# derandomize, deadline, database: the hypothesis profile (tests/_profiles.py, "ci" by default)
+SETTINGS = settings(max_examples=examples(50))
 
 
 def exact(c, r, rho=RHO):
@@ -290,7 +291,8 @@ def general_clumps(draw):
 @st.composite
 def degenerate_clumps(draw):
     c, r = draw(general_clumps())
-    kind = draw(st.sampled_from(["tangent", "internal", "duplicate", "four_point", "on_triple_point", "small_overlap"]))
+    kind = draw(st.sampled_from(["tangent", "internal", "duplicate", "near_duplicate", "pencil", "four_point",
+                                 "on_triple_point", "small_overlap"]))
     i = draw(st.integers(0, len(r) - 1))
     axis = draw(st.integers(0, 2))
     sign = draw(st.sampled_from([-1.0, 1.0]))
@@ -311,6 +313,18 @@ def degenerate_clumps(draw):
         off = draw(st.sampled_from([0.0, 1e-12, 1e-13]))
         u = np.array(draw(st.tuples(*[st.floats(-1, 1)] * 3)))
         c, r = np.vstack([c, c[i] + off * u]), np.append(r, r[i])
+    elif kind == "near_duplicate":  # issue 10: offsets 1e-300 .. 1e-6 of the radius
+        off = 10.0 ** -draw(st.floats(6.0, 300.0)) * r[i]
+        u = np.array(draw(st.tuples(*[st.floats(-1, 1)] * 3)))
+        u = u / np.linalg.norm(u) if np.linalg.norm(u) > 0.1 else np.array([0.0, 0.0, 1.0])
+        c, r = np.vstack([c, c[i] + off * u]), np.append(r, r[i])
+    elif kind == "pencil":  # spheres through one circle: centres c_i + z e, radii sqrt(rho^2 + z^2)
+        rho = r[i] * draw(st.floats(0.5, 1.0))
+        z0 = math.sqrt(r[i] ** 2 - rho**2)
+        zs = [draw(st.floats(-0.8, 0.8)) * r[i] for _ in range(draw(st.integers(1, 3)))]
+        base = c[i] - z0 * e  # the circle's centre
+        c = np.vstack([c] + [base + z * e for z in zs])
+        r = np.append(r, [math.sqrt(rho * rho + z * z) for z in zs])
     elif kind == "four_point":
         p = np.array([dy(draw, -0.3, 0.3) for _ in range(3)])
         k = draw(st.integers(4, 5))
@@ -413,7 +427,7 @@ def test_near_degenerate_results_are_continuous(clump, seed):
         assert rel(b.inertia, a.inertia) <= 1e-8
 
 
-@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(6, cap=200))
 @given(degenerate_clumps())
 def test_near_degenerate_clumps_agree_with_slicing_reference(clump):
     c, r = clump

@@ -19,13 +19,14 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, example, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from clumpprops import mass_properties
 
 import _clump_reference as ref
+from _profiles import examples
 
 EPS = np.finfo(float).eps
 
@@ -35,7 +36,8 @@ EXACT = "exact"
 ALL_METHODS = ["pairwise", "sum", EXACT]
 UNION_METHODS = ["pairwise", EXACT]
 
-SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+# derandomize, deadline, database: the hypothesis profile (tests/_profiles.py, "ci" by default)
+SETTINGS = settings(max_examples=examples(60))
 
 # ------------------------------------------------------------------ strategies
 unit_vectors = (

@@ -13,6 +13,8 @@ from hypothesis import strategies as st
 import clumpprops
 from clumpprops import MassProperties, mass_properties
 
+from _profiles import examples
+
 C2 = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
 R2 = [0.7, 0.6]
 
@@ -151,7 +153,7 @@ def test_overflowing_input_raises_instead_of_returning_nan(method, radius, densi
         assert not np.any(np.isnan(getattr(mp, name))), f"{name} is NaN for r={radius}, rho={density}"
 
 
-@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@settings(max_examples=examples(60))  # derandomized etc.: tests/_profiles.py
 @given(
     st.lists(
         st.tuples(st.floats(-10, 10), st.floats(-10, 10), st.floats(-10, 10), st.floats(1e-3, 5.0)),
