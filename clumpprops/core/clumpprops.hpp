@@ -27,7 +27,12 @@ constexpr double kTwoPi = 2.0 * kPi;
 constexpr double kFourPi = 4.0 * kPi;
 // pairs whose rim circle is smaller than this (relative to both radii) are treated as tangent
 constexpr double kRhoTangent = 1e-6;
-// two circles of one sphere with |R|, |m| below this are one circle (see Arrangement)
+// a sphere protruding from another by at most this fraction of the smaller radius is inside it
+// (scale-aware containment, docs/exact_method.md section 2a)
+constexpr double kTauNested = 1e-13;
+// two cap circles of one unit sphere closer than this everywhere are one circle (prune_caps)
+constexpr double kCoincidentCaps = 1e-13;
+// safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
 
 struct Moments {
@@ -557,7 +562,7 @@ struct ExactWorkspace {
   std::vector<signed char> buried;
   std::vector<Cap> caps, sorted;
   std::vector<int> start, count;
-  std::vector<signed char> drop;
+  std::vector<signed char> drop, copy, coinc;
   std::vector<double> alpha;
   Arrangement arr;
 };
@@ -566,17 +571,22 @@ struct ExactWorkspace {
 inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
   w.search.overlapping(c, r, n, w.pairs);
   w.buried.assign(n, 0);
-  // containment: D + r_small <= r_big; of identical spheres the later index is buried
+  // containment, scale-aware: a is inside b when its protrusion (r_a - r_b) + D is at most
+  // tau min(r_a, r_b).  Of two spheres inside each other (near-identical), exactly one goes: the
+  // later in the order (larger radius first, then lower index), so one of each group stays.
   for (const Pair& p : w.pairs) {
     const double ra = r[p.a], rb = r[p.b];
-    if (p.D + ra <= rb && !(p.D == 0.0 && ra == rb)) w.buried[p.a] = 1;
-    if (p.D + rb <= ra) w.buried[p.b] = 1;
+    const double tol = kTauNested * std::min(ra, rb);
+    const bool a_in_b = (ra - rb) + p.D <= tol;
+    const bool b_in_a = (rb - ra) + p.D <= tol;
+    const bool a_first = ra >= rb;
+    if (a_in_b && !(b_in_a && a_first)) w.buried[p.a] = 1;
+    if (b_in_a && !(a_in_b && !a_first)) w.buried[p.b] = 1;
   }
   w.caps.clear();
   for (const Pair& p : w.pairs) {
     const double ra = r[p.a], rb = r[p.b], D = p.D;
-    if (p.D + ra <= rb || p.D + rb <= ra) continue;  // containment pair: no caps
-    if (w.buried[p.a] || w.buried[p.b]) continue;
+    if (w.buried[p.a] || w.buried[p.b]) continue;  // (every containment pair buried one of its spheres)
     const double delta = ra + rb - D;
     const double omh_a = delta * ((rb - ra) + D) / (2.0 * ra * D);
     const double oph_a = ((ra - rb) + D) * (ra + D + rb) / (2.0 * ra * D);
@@ -618,14 +628,46 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
   }
 }
 
-// Drop caps contained in another cap of the same sphere (they change nothing): cap j lies in
-// cap k iff angle(n_j, n_k) + alpha_j <= alpha_k; of identical caps the lower-ranked is kept.
-// Compacts caps[0..K) in place and returns the new K.
+// The caps of one sphere that matter (docs/exact_method.md, section 2a), compacted in place:
+// 1. coincident circles (|h_k g - h_j| + rho_k |n_k x n_j| <= tol seen from both circles, g = n_k.n_j)
+//    are one circle, decided once here: of equally oriented caps the lowest-ranked is kept; two
+//    oppositely oriented ones (complementary caps) cover the whole sphere: returns -1 (the sphere
+//    contributes nothing);
+// 2. of the rest, cap j lying in cap k (angle(n_j, n_k) + alpha_j <= alpha_k) is dropped.
+// Returns the new K (or -1).  Sets alpha of the kept caps.
 inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
-  if (K < 2) return K;
+  if (K < 2) {
+    if (K == 1) caps[0].alpha = std::atan2(caps[0].rho, caps[0].h);
+    return K;
+  }
   w.alpha.resize(K);
   w.drop.assign(K, 0);
-  for (int k = 0; k < K; ++k) w.alpha[k] = caps[k].alpha = std::atan2(caps[k].rho, caps[k].h);
+  std::vector<signed char>& coinc = w.coinc;
+  coinc.assign(static_cast<std::size_t>(K) * K, 0);
+  for (int k = 0; k < K; ++k) {
+    w.alpha[k] = caps[k].alpha = std::atan2(caps[k].rho, caps[k].h);
+  }
+  for (int k = 0; k < K; ++k)
+    for (int j = k + 1; j < K; ++j) {
+      const double* a = caps[k].n;
+      const double* b = caps[j].n;
+      const double g = dot3(a, b);
+      // cheap exclusion: coincident circles have nearly equal h and nearly parallel axes
+      if (std::fabs(g) < 0.5) continue;
+      const double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
+      const double sn = std::sqrt(cx * cx + cy * cy + cz * cz);
+      const double dkj = std::fabs(caps[k].h * g - caps[j].h) + caps[k].rho * sn;
+      const double djk = std::fabs(caps[j].h * g - caps[k].h) + caps[j].rho * sn;
+      if (dkj <= kCoincidentCaps && djk <= kCoincidentCaps) {
+        if (g < 0.0) return -1;  // complementary caps: the sphere is covered entirely
+        coinc[static_cast<std::size_t>(k) * K + j] = coinc[static_cast<std::size_t>(j) * K + k] = 1;
+        // the same cap twice: keep the lower-ranked
+        if (caps[k].other < caps[j].other)
+          w.drop[j] = 1;
+        else
+          w.drop[k] = 1;
+      }
+    }
   auto inside = [&](int j, int k) {  // cap j within cap k
     const double room = w.alpha[k] - w.alpha[j];
     if (room < 0.0) return false;
@@ -638,12 +680,12 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
     const double theta = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), d);
     return theta + w.alpha[j] <= w.alpha[k];
   };
+  // a cap dropped as a coincident copy is no container (its kept twin is): remember those flags
+  w.copy.assign(w.drop.begin(), w.drop.end());
   for (int j = 0; j < K; ++j)
     for (int k = 0; k < K && !w.drop[j]; ++k) {
-      if (k == j) continue;
-      if (!inside(j, k)) continue;
-      const bool same = inside(k, j);
-      if (!same || caps[k].other < caps[j].other) w.drop[j] = 1;
+      if (k == j || w.copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
+      if (inside(j, k)) w.drop[j] = 1;
     }
   int m = 0;
   for (int k = 0; k < K; ++k)
@@ -664,6 +706,7 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
       continue;
     }
     K = prune_caps(caps, K, w);
+    if (K < 0) continue;  // covered entirely by complementary caps
     if (K == 1)
       single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, s);
     else
