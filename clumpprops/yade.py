@@ -118,27 +118,11 @@ def _rotation(q):
     return np.array([[float(m[i, j]) for j in range(3)] for i in range(3)])
 
 
-# --------------------------------------------------------------------------- pure numpy part
-
-
-def _sphere_moments(centers, radii, densities):
-    """Mass (N,) and own inertia (N,) of member spheres exactly as YADE sums them."""
-    vol = (4.0 / 3.0) * math.pi * radii**3.0
-    m = densities * vol
-    return m, 0.4 * m * radii**2
-
-
-def _pax(d):
-    """Parallel-axis matrices |d|^2 1 - d d^T for d (..., 3)."""
-    P = -d[..., :, None] * d[..., None, :]
-    sq = np.einsum("...i,...i->...", d, d)
-    for k in range(3):
-        P[..., k, k] += sq
-    return P
+# --------------------------------------------------------------------------- the correction member (no YADE objects)
 
 
 def correction_terms(centers, radii, densities, mass, com, inertia):
-    """State of the correction members of a batch of clumps (pure numpy).
+    """State of the correction members of a batch of clumps (no YADE objects; arithmetic in the core).
 
     centers: list of (N_m, 3) world positions of the member spheres; radii: list of (N_m,);
     densities: list of (N_m,) material densities (as YADE reads them);
@@ -150,39 +134,23 @@ def correction_terms(centers, radii, densities, mass, com, inertia):
     target centre of mass, so nothing is lost to cancellation however far the clump is from
     the origin.
     """
+    from .core import _core  # the same arithmetic, compiled (one call for the batch)
+
     M = len(centers)
-    counts = np.array([len(r) for r in radii])
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    x = np.concatenate([np.asarray(c, float).reshape(-1, 3) for c in centers])
-    r = np.concatenate([np.asarray(a, float).ravel() for a in radii])
-    rho = np.concatenate([np.asarray(a, float).ravel() for a in densities])
-    mass = np.asarray(mass, float).reshape(M)
-    com = np.asarray(com, float).reshape(M, 3)
-    inertia = np.asarray(inertia, float).reshape(M, 3, 3)
-    m_i, j_i = _sphere_moments(x, r, rho)
-    d = x - np.repeat(com, counts, axis=0)  # sphere centres relative to the exact COM
-    m_s = np.add.reduceat(m_i, starts)
-    S = np.add.reduceat(m_i[:, None] * d, starts, axis=0)  # first moment of the spheres about the COM
-    I_s = np.add.reduceat(m_i[:, None, None] * _pax(d) + j_i[:, None, None] * np.eye(3), starts, axis=0)
-    m_c = mass - m_s
-    # the correction's offset from the COM cancels the spheres' first moment: m_c * off = -S.
-    # In exact arithmetic the excess ("summed minus union") is a non-negative distribution
-    # inside the clump, so |off| <= the clump's radius about its COM; where round-off
-    # dominates (no real overlap, m_c ~ 1e-16 m) clamp to that radius.
-    reach = np.maximum.reduceat(np.linalg.norm(d, axis=1) + r, starts)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        off = -S / m_c[:, None]
-    norm = np.linalg.norm(off, axis=1)
-    bad = ~np.isfinite(norm) | (norm > reach)
-    if np.any(bad):
-        scale = np.where(np.isfinite(norm) & (norm > 0), reach / np.where(norm > 0, norm, 1.0), 0.0)
-        off[bad] = off[bad] * scale[bad, None]
-        off[~np.isfinite(off)] = 0.0
-    J = inertia - I_s - m_c[:, None, None] * _pax(off)
-    J = 0.5 * (J + np.swapaxes(J, 1, 2))
-    w, V = np.linalg.eigh(J)
-    flip = np.linalg.det(V) < 0
-    V[flip, :, 2] *= -1.0
+    counts = np.fromiter(map(len, radii), np.int64, M)
+    starts = np.zeros(M + 1, np.int64)
+    np.cumsum(counts, out=starts[1:])
+    x = np.ascontiguousarray(np.concatenate([np.asarray(c, float).reshape(-1, 3) for c in centers]))
+    r = np.ascontiguousarray(np.concatenate([np.asarray(a, float).ravel() for a in radii]))
+    rho = np.ascontiguousarray(np.concatenate([np.asarray(a, float).ravel() for a in densities]))
+    mass = np.ascontiguousarray(mass, float).reshape(M)
+    com = np.ascontiguousarray(com, float).reshape(M, 3)
+    inertia = np.ascontiguousarray(inertia, float).reshape(M, 3, 3)
+    m_c, off, w, V = np.empty(M), np.empty((M, 3)), np.empty((M, 3)), np.empty((M, 3, 3))
+    # sums about the target COM; off = -S / m_c clamped to the clump's reach (in exact arithmetic
+    # the excess "summed minus union" is a non-negative distribution inside the clump);
+    # J = inertia - I_spheres - m_c (|off|^2 1 - off off^T), symmetrised, right-handed eigenvectors
+    _core.correction(x, r, rho, starts, mass, com, inertia, m_c, off, w, V)
     return m_c, off, w, V
 
 

@@ -101,10 +101,72 @@ static void principal(carr inertia, carr moments, carr axes) {
   for (std::int64_t m = 0; m < M; ++m) clumpprops::eigh3(I + 9 * m, w + 3 * m, V + 9 * m);
 }
 
+// YADE adapter (clumpprops/yade.py, correction_terms): the state of each clump's correction member
+// so that the spheres (summed the way YADE's Clump::updateProperties sums them) plus the correction
+// give the target mass, COM and inertia.  Sums about the target COM.  Same arithmetic as the numpy
+// version it replaces: sphere mass rho 4/3 pi r^3, own inertia 0.4 m r^2; offset -S/m_c clamped to
+// the clump's reach; J = I - I_spheres - m_c (|off|^2 1 - off off^T), symmetrised, Jacobi eigen.
+static void correction(carr centers, carr radii, carr densities, iarr starts, carr mass, carr com, carr inertia,
+                       carr m_c, carr off, carr w, carr V) {
+  const std::int64_t M = mass.size();
+  if (starts.size() != M + 1 || com.size() != 3 * M || inertia.size() != 9 * M || m_c.size() != M ||
+      off.size() != 3 * M || w.size() != 3 * M || V.size() != 9 * M)
+    throw std::invalid_argument("correction: shapes do not match");
+  const std::int64_t* st = starts.data();
+  const std::int64_t S = radii.size();
+  if (centers.size() != 3 * S || densities.size() != S || st[M] > S || st[0] < 0)
+    throw std::invalid_argument("correction: sphere arrays do not match starts");
+  const double* x = centers.data();
+  const double* r = radii.data();
+  const double* rho = densities.data();
+  const double* pm = mass.data();
+  const double* pc = com.data();
+  const double* pI = inertia.data();
+  double* omc = m_c.mutable_data();
+  double* ooff = off.mutable_data();
+  double* ow = w.mutable_data();
+  double* oV = V.mutable_data();
+  py::gil_scoped_release release;
+  for (std::int64_t m = 0; m < M; ++m) {
+    const double* c0 = pc + 3 * m;
+    double ms = 0.0, S3[3] = {0, 0, 0}, Is[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, reach = 0.0;
+    for (std::int64_t i = st[m]; i < st[m + 1]; ++i) {
+      const double vol = (4.0 / 3.0) * clumpprops::kPi * std::pow(r[i], 3.0);
+      const double mi = rho[i] * vol, ji = 0.4 * mi * r[i] * r[i];
+      const double d[3] = {x[3 * i] - c0[0], x[3 * i + 1] - c0[1], x[3 * i + 2] - c0[2]};
+      const double sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      ms += mi;
+      for (int a = 0; a < 3; ++a) S3[a] += mi * d[a];
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) Is[3 * a + b] += mi * ((a == b ? sq : 0.0) - d[a] * d[b]) + (a == b ? ji : 0.0);
+      reach = std::max(reach, std::sqrt(sq) + r[i]);
+    }
+    const double mc = pm[m] - ms;
+    double o[3] = {-S3[0] / mc, -S3[1] / mc, -S3[2] / mc};
+    const double norm = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+    if (!std::isfinite(norm) || norm > reach) {
+      const double scale = (std::isfinite(norm) && norm > 0.0) ? reach / norm : 0.0;
+      for (int a = 0; a < 3; ++a) {
+        o[a] *= scale;
+        if (!std::isfinite(o[a])) o[a] = 0.0;
+      }
+    }
+    const double osq = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+    double J[9];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        J[3 * a + b] = pI[9 * m + 3 * a + b] - Is[3 * a + b] - mc * ((a == b ? osq : 0.0) - o[a] * o[b]);
+    omc[m] = mc;
+    for (int a = 0; a < 3; ++a) ooff[3 * m + a] = o[a];
+    clumpprops::eigh3(J, ow + 3 * m, oV + 9 * m);  // symmetrises
+  }
+}
+
 PYBIND11_MODULE(_core, mod) {
   mod.doc() = "clumpprops' compiled core (clumpprops/core/clumpprops.hpp): exact, pairwise and summed moments";
   mod.def("run", &run);
   mod.def("principal", &principal);
+  mod.def("correction", &correction);
   mod.attr("EXACT") = static_cast<int>(clumpprops::kExact);
   mod.attr("PAIRWISE") = static_cast<int>(clumpprops::kPairwise);
   mod.attr("SUM") = static_cast<int>(clumpprops::kSum);
