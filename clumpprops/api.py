@@ -86,6 +86,15 @@ def _flatten(centers, radii):
         M = len(centers)
         if len(radii) != M:
             return None
+        if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
+            try:
+                c = np.asarray(centers[0], dtype=_F64)
+                r = np.asarray(radii[0], dtype=_F64)
+            except (TypeError, ValueError):
+                return None
+            if c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
+                return None
+            return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
         try:
             nc = np.fromiter(map(len, centers), np.int64, M)
             nr = np.fromiter(map(len, radii), np.int64, M)
