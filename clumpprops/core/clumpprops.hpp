@@ -636,10 +636,7 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
 // 2. of the rest, cap j lying in cap k (angle(n_j, n_k) + alpha_j <= alpha_k) is dropped.
 // Returns the new K (or -1).  Sets alpha of the kept caps.
 inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
-  if (K < 2) {
-    if (K == 1) caps[0].alpha = std::atan2(caps[0].rho, caps[0].h);
-    return K;
-  }
+  if (K < 2) return K;  // one cap: closed form (single_cap), no angular radius needed
   w.alpha.resize(K);
   w.drop.assign(K, 0);
   std::vector<signed char>& coinc = w.coinc;
