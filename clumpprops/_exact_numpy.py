@@ -51,7 +51,7 @@ _RHO_TANGENT = 1e-6  # caps of pairs closer than this to tangency are dropped (s
 # inside it (see _buried_spheres and docs/exact_method.md, section 2a)
 _TAU_NESTED = 1e-13
 # two cap circles on one unit sphere closer than this everywhere are one circle (see
-# _sphere_surface_moments and docs/exact_method.md, section 2a)
+# _coincident_caps, _uncovered_caps and docs/exact_method.md, section 2a)
 _COINCIDENT = 1e-13
 
 
@@ -123,8 +123,9 @@ def _caps(sph: Spheres):
     other = np.concatenate([b, a])
     # Near-tangent pairs (rim circle radius < _RHO_TANGENT of both spheres; round-off near
     # a tangency makes circles of radius ~sqrt(eps)): treat as tangent.  Externally: no
-    # caps; internally: the inner sphere is buried.  The change in every moment is below
-    # the lens volume, ~ pi/4 rho^4 r^3 < 1e-24 r^3.
+    # caps; internally: the inner sphere is buried.  Decided once per pair, for both
+    # spheres.  The change is the lens volume, ~ pi/4 rho^4 r^3 < 1e-24 r^3, when no third
+    # sphere meets the lens (otherwise see docs/exact_method.md, section 2a, rule T).
     P = len(a)
     tiny = np.maximum(rho[:P], rho[P:]) < _RHO_TANGENT
     if np.any(tiny):
@@ -401,7 +402,7 @@ def _grouped(owner, other, per_sphere_cost):
 
 
 def _coincident_caps(n, h, rho):
-    """[c, k, j] bool: circles k and j of one sphere coincide (within _COINCIDENT), and g = n_k.n_j.
+    """[c, k, j] bool: circles k and j of one sphere coincide (within _COINCIDENT); g = n_k.n_j, |n_k x n_j|.
 
     On circle k, f_kj = u.n_j - h_j = m_kj + R_kj cos(t - phi) with m_kj = h_k g - h_j and
     R_kj = rho_k |n_k x n_j|; the circles coincide when |f| <= tol all along both of them,
@@ -413,7 +414,7 @@ def _coincident_caps(n, h, rho):
     sin_kj = np.linalg.norm(np.cross(n[:, :, None, :], n[:, None, :, :]), axis=-1)
     dev = np.abs(h[:, :, None] * g - h[:, None, :]) + rho[:, :, None] * sin_kj
     near = dev <= _COINCIDENT
-    return near & np.swapaxes(near, 1, 2) & ~np.eye(K, dtype=bool)[None], g
+    return near & np.swapaxes(near, 1, 2) & ~np.eye(K, dtype=bool)[None], g, sin_kj
 
 
 def _uncovered_caps(n, h, rho, rank):
@@ -434,13 +435,12 @@ def _uncovered_caps(n, h, rho, rank):
     C, K = h.shape
     if K == 1:
         return np.ones(h.shape, bool), np.zeros(C, bool)
-    coincident, g = _coincident_caps(n, h, rho)
+    coincident, g, sin_kj = _coincident_caps(n, h, rho)
     covered_all = np.any(coincident & (g < 0), axis=(1, 2))
     lower = rank[:, None, :] < rank[:, :, None]  # [c, k, j]: j ranks before k
     keep = ~np.any(coincident & (g > 0) & lower, axis=2)
     alpha = np.arctan2(rho, h)
-    cross = np.cross(n[:, :, None, :], n[:, None, :, :])
-    theta = np.arctan2(np.linalg.norm(cross, axis=-1), g)
+    theta = np.arctan2(sin_kj, g)
     inside = theta + alpha[:, :, None] <= alpha[:, None, :]  # [c, j, k]: cap j within cap k
     inside &= ~coincident & keep[:, None, :] & ~np.eye(K, dtype=bool)[None]
     keep &= ~np.any(inside, axis=2)

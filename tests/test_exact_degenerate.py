@@ -302,3 +302,13 @@ def test_fuzz_found_pencils_match_slicing_in_any_position(case):
         R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         t = rng.normal(size=3) * L
         check(exact(c @ R.T + t, r), m, R @ com + t, R @ I @ R.T, 1e-12 + 64 * np.finfo(float).eps * np.abs(t).max() / L, L)
+
+
+# ------------------------------------------------------------------ tangent pairs cut by a third sphere
+@pytest.mark.parametrize("overlap", [0.0, 1e-300, -1e-300, 1e-15, -1e-12, 1e-9, 1e-6])
+def test_near_tangent_pair_with_a_third_sphere_through_the_contact_matches_slicing(overlap):
+    """Spheres 0.5 and 0.375 touching at (0.5, 0, 0) (dyadic: exactly tangent), overlapping by overlap * 0.375
+    (negative: a gap), and a third sphere containing the contact point that cuts both."""
+    c = np.array([[0.0, 0.0, 0.0], [0.875 - overlap * 0.375, 0.0, 0.0], [0.5, 0.25, 0.125]])
+    r = np.array([0.5, 0.375, 0.3125])
+    check(exact(c, r), *slicing_ref(c, r), 1e-12, extent(c, r))
