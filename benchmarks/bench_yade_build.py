@@ -141,8 +141,19 @@ def main():
     rng = np.random.default_rng(a.seed)
     print(f"YADE {yade.config.version}, clumpprops {clumpprops.__version__}, python {sys.version.split()[0]}, "
           f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, CPU times (time.process_time)")
-    bench("paper dimers (d = 0.1333 m, D = d/2)", dimers(10_000 // f, rng))
-    bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng))
+    out = {"yade": str(yade.config.version), "clumpprops": clumpprops.__version__, "quick": a.quick,
+           "date": time.strftime("%Y-%m-%d %H:%M"), "loadavg_start": os.getloadavg(),
+           "columns": "variant: [full build CPU s, clumping call CPU s]; ratios to 'yade d=0'"}
+    out["dimers"] = bench("paper dimers (d = 0.1333 m, D = d/2)", dimers(10_000 // f, rng))
+    out["clumps20"] = bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng))
+    out["loadavg_end"] = os.getloadavg()
+    if not a.quick:
+        import json
+
+        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "yade_build.json")
+        with open(path, "w") as fh:
+            json.dump(out, fh, indent=1)
+        print("written", path)
 
 
 if __name__ == "__main__":

@@ -12,8 +12,9 @@ YADE; the YADE adapter is :mod:`clumpprops.yade`, imported on demand.
 >>> round(mp.mass, 6)
 2.38582
 """
-from ._properties import MassProperties, StandardError
+from ._properties import MassProperties, StandardError, concatenate
 from .api import DEFAULT_METHOD, METHODS, mass_properties
+from .methods import Exact, MonteCarlo, Pairwise, Sum, Voxel
 from .pairwise import ClumpGeometryError
 
 __version__ = "0.1.0"
@@ -22,6 +23,12 @@ __all__ = [
     "mass_properties",
     "MassProperties",
     "StandardError",
+    "concatenate",
+    "Exact",
+    "Pairwise",
+    "Sum",
+    "MonteCarlo",
+    "Voxel",
     "ClumpGeometryError",
     "METHODS",
     "DEFAULT_METHOD",

@@ -20,6 +20,8 @@ from typing import Optional
 
 import numpy as np
 
+from .core import _core
+
 
 def _frozen(a):
     """Read-only float64 array (copied unless already read-only float64); 0-d becomes a float."""
@@ -58,7 +60,7 @@ class StandardError:
         return StandardError(*(getattr(self, f.name)[idx] for f in fields(self)))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MassProperties:
     """Mass properties of one clump, or of a batch of M clumps (leading axis M).
 
@@ -72,6 +74,14 @@ class MassProperties:
     ``standard_error`` a :class:`StandardError` for sampled methods, else None.
 
     Instances are immutable (arrays are read-only); index a batch with ``mp[i]``.
+
+    A value object: ``==`` and ``hash`` compare the defining values exactly (mass, volume,
+    centre of mass, inertia, method, density; -0.0 equals 0.0); principal moments and axes
+    are derived from the inertia (and the axes are not unique for equal moments), and the
+    standard error is metadata, so neither takes part.  Use :meth:`allclose` for
+    tolerances.  :meth:`translated`, :meth:`rotated` and :meth:`inertia_about` give the
+    properties of the moved body or about another point; :attr:`orientation` is the
+    principal frame as a ``scipy.spatial.transform.Rotation``; :func:`concatenate` stacks.
     """
 
     mass: np.ndarray
@@ -85,10 +95,21 @@ class MassProperties:
     standard_error: Optional[StandardError] = field(default=None, compare=False)
 
     _ARRAYS = ("mass", "volume", "center_of_mass", "inertia", "principal_moments", "principal_axes")
+    _DEFINING = ("mass", "volume", "center_of_mass", "inertia")
 
     def __post_init__(self):
         for name in self._ARRAYS:
             object.__setattr__(self, name, _frozen(getattr(self, name)))
+
+    @classmethod
+    def _make(cls, mass, volume, com, inertia, moments, axes, method, density, standard_error=None):
+        """Build from arrays that are already read-only float64 (the core's output): no copies."""
+        self = object.__new__(cls)
+        d = self.__dict__
+        d["mass"], d["volume"], d["center_of_mass"], d["inertia"] = mass, volume, com, inertia
+        d["principal_moments"], d["principal_axes"] = moments, axes
+        d["method"], d["density"], d["standard_error"] = method, density, standard_error
+        return self
 
     @property
     def batched(self) -> bool:
@@ -110,6 +131,106 @@ class MassProperties:
             standard_error=se,
         )
 
+    def __iter__(self):
+        return (self[i] for i in range(len(self)))
+
+    # ------------------------------------------------------------ value semantics
+    def __eq__(self, other):
+        if not isinstance(other, MassProperties):
+            return NotImplemented
+        if self.method != other.method or self.density != other.density:
+            return False
+        for n in self._DEFINING:
+            a, b = getattr(self, n), getattr(other, n)
+            if np.shape(a) != np.shape(b) or not np.array_equal(a, b):
+                return False
+        return True
+
+    def __ne__(self, other):
+        eq = self.__eq__(other)
+        return eq if eq is NotImplemented else not eq
+
+    def __hash__(self):
+        parts = [self.method, self.density + 0.0]
+        for n in self._DEFINING:
+            a = np.asarray(getattr(self, n), dtype=np.float64) + 0.0  # -0.0 -> 0.0, as == does
+            parts.append((a.shape, a.tobytes()))
+        return hash(tuple(parts))
+
+    def allclose(self, other: "MassProperties", rtol: float = 1e-9, atol: float = 0.0) -> bool:
+        """True if every defining value agrees within ``atol + rtol * scale`` (all clumps of a batch).
+
+        Scales: mass and volume their own magnitude; the centre of mass the clump's radius of
+        gyration sqrt(tr(I) / (2 m)) (so translating a clump far away does not loosen the test);
+        the inertia its largest element.  ``atol`` is in the quantity's own SI unit.  Method and
+        density are not compared (results of different methods can be close).
+        """
+        if not isinstance(other, MassProperties):
+            raise TypeError(f"allclose needs a MassProperties, got {type(other).__name__}")
+        if np.shape(self.mass) != np.shape(other.mass):
+            return False
+        m, mo = np.asarray(self.mass), np.asarray(other.mass)
+        I, Io = np.asarray(self.inertia), np.asarray(other.inertia)
+        tr = np.trace(I, axis1=-2, axis2=-1)
+        L = np.sqrt(np.abs(tr) / (2.0 * np.abs(m)))
+
+        def close(a, b, scale):
+            return bool(np.all(np.abs(a - b) <= atol + rtol * scale))
+
+        return (
+            close(m, mo, np.abs(m))
+            and close(np.asarray(self.volume), np.asarray(other.volume), np.abs(np.asarray(self.volume)))
+            and close(self.center_of_mass, other.center_of_mass, L[..., None])
+            and close(I, Io, np.max(np.abs(I), axis=(-2, -1))[..., None, None])
+        )
+
+    # ------------------------------------------------------------ moved bodies
+    def translated(self, v) -> "MassProperties":
+        """The same body moved by ``v`` (3,) m (or (M, 3) for a batch); inertia is about the COM."""
+        v = np.asarray(v, dtype=np.float64)
+        if v.shape not in ((3,), np.shape(self.center_of_mass)):
+            raise ValueError(f"translation must have shape (3,) or {np.shape(self.center_of_mass)}, got {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise ValueError("translation contains NaN or inf")
+        return MassProperties(self.mass, self.volume, self.center_of_mass + v, self.inertia, self.principal_moments,
+                              self.principal_axes, method=self.method, density=self.density,
+                              standard_error=self.standard_error)
+
+    def rotated(self, rotation) -> "MassProperties":
+        """The body rotated about the world origin by a proper rotation: a (3, 3) matrix or a
+        single ``scipy.spatial.transform.Rotation``.  COM -> R c, inertia -> R I R^T, axes -> R J.
+
+        The standard error of a sampled result is element-wise in the input axes and does not
+        rotate with the body: the result has ``standard_error=None``.
+        """
+        R = _rotation_matrix(rotation)
+        com = self.center_of_mass @ R.T
+        I = R @ self.inertia @ R.T
+        I = 0.5 * (I + np.swapaxes(I, -1, -2))
+        axes = R @ self.principal_axes
+        return MassProperties(self.mass, self.volume, com, I, self.principal_moments, axes,
+                              method=self.method, density=self.density)
+
+    def inertia_about(self, point) -> np.ndarray:
+        """Inertia tensor (3, 3) kg m^2 about ``point`` (3,) m, axes parallel to the input axes
+        (parallel-axis theorem: I_com + m (|d|^2 1 - d d^T), d = com - point)."""
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape not in ((3,), np.shape(self.center_of_mass)):
+            raise ValueError(f"point must have shape (3,) or {np.shape(self.center_of_mass)}, got {p.shape}")
+        d = self.center_of_mass - p
+        m = np.asarray(self.mass)[..., None, None]
+        sq = np.einsum("...i,...i->...", d, d)[..., None, None]
+        return self.inertia + m * (sq * np.eye(3) - d[..., :, None] * d[..., None, :])
+
+    @property
+    def orientation(self):
+        """The principal frame as a ``scipy.spatial.transform.Rotation`` (body -> input axes):
+        ``orientation.as_matrix() == principal_axes`` (right-handed), so
+        ``inertia == R diag(principal_moments) R^T``.  A stacked Rotation for a batch."""
+        from scipy.spatial.transform import Rotation
+
+        return Rotation.from_matrix(np.array(self.principal_axes))  # scipy 1.10 needs a writeable buffer
+
     def to_dict(self) -> dict:
         """Plain-Python view (lists and floats), e.g. for JSON."""
         d = {n: np.asarray(getattr(self, n)).tolist() for n in self._ARRAYS}
@@ -122,11 +243,54 @@ class MassProperties:
         return d
 
 
+def _rotation_matrix(rotation) -> np.ndarray:
+    if hasattr(rotation, "as_matrix") and not isinstance(rotation, np.ndarray):
+        R = np.asarray(rotation.as_matrix(), dtype=np.float64)
+    else:
+        R = np.asarray(rotation, dtype=np.float64)
+    if R.shape != (3, 3):
+        raise ValueError(f"rotation must be a (3, 3) matrix or a single scipy Rotation, got shape {R.shape}")
+    if not np.all(np.isfinite(R)) or np.max(np.abs(R @ R.T - np.eye(3))) > 1e-10 or np.linalg.det(R) < 0:
+        raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
+    return R
+
+
+def concatenate(items) -> MassProperties:
+    """Stack MassProperties (single clumps or batches) into one batch, in order.
+
+    All must come from the same method and density (the batch has one of each); the standard
+    error is kept if every item has one.
+    """
+    items = list(items)
+    if not items:
+        raise ValueError("concatenate needs at least one MassProperties")
+    for x in items:
+        if not isinstance(x, MassProperties):
+            raise TypeError(f"concatenate takes MassProperties, got {type(x).__name__}")
+    m0, d0 = items[0].method, items[0].density
+    if any(x.method != m0 or x.density != d0 for x in items):
+        raise ValueError("concatenate needs results of one method and one density "
+                         f"(got {sorted({(x.method, x.density) for x in items})})")
+
+    def stack(name, src):
+        return np.concatenate([np.asarray(getattr(x, name))[None] if not x.batched else np.asarray(getattr(x, name))
+                               for x in src])
+
+    se = None
+    if all(x.standard_error is not None for x in items):
+        ses = [x.standard_error for x in items]
+        se = StandardError(*(np.concatenate([np.asarray(getattr(s, f.name))[None] if not x.batched
+                                             else np.asarray(getattr(s, f.name)) for s, x in zip(ses, items)])
+                             for f in fields(StandardError)))
+    return MassProperties(*(stack(n, items) for n in MassProperties._ARRAYS), method=m0, density=d0, standard_error=se)
+
+
 def principal(inertia: np.ndarray):
     """Ascending principal moments (..., 3) and right-handed axes (..., 3, 3) of symmetric (..., 3, 3)."""
-    w, v = np.linalg.eigh(inertia)
-    det = np.einsum("...i,...i->...", np.cross(v[..., :, 0], v[..., :, 1]), v[..., :, 2])
-    v[..., :, 2] *= np.where(det < 0, -1.0, 1.0)[..., None]
+    I = np.ascontiguousarray(inertia, dtype=np.float64)
+    w = np.empty(I.shape[:-1])
+    v = np.empty(I.shape)
+    _core.principal(I, w, v)  # Jacobi in the core, as for the core's own methods
     return w, v
 
 

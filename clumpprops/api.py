@@ -1,14 +1,39 @@
-"""``mass_properties``: one call, one immutable answer, for one clump or a batch."""
+"""``mass_properties``: one call, one immutable answer, for one clump or a batch.
+
+Methods ``exact``, ``pairwise`` and ``sum`` run in the compiled core
+(``clumpprops/core/clumpprops.hpp`` through the pybind11 module ``clumpprops.core._core``):
+the input is checked and flattened once here, then one core call per block of clumps
+computes every clump (origin, moments, mass, centre of mass, inertia, principal axes)
+straight into the result arrays; there is no Python work per clump.  ``montecarlo`` and
+``voxel`` are numpy baselines (``baselines.py``).
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from . import _input
 from ._properties import MassProperties, finish
+from .core import _core
+from .methods import BY_NAME
 
 METHODS = ("exact", "pairwise", "sum", "montecarlo", "voxel")
-_BATCH_CHUNK = 32768  # clumps per block for large batches
+_BATCH_CHUNK = 32768  # clumps per core call for large batches (errors name the clump of the whole batch)
 DEFAULT_METHOD = "exact"
+_CORE = {"exact": _core.EXACT, "pairwise": _core.PAIRWISE, "sum": _core.SUM}
+_F64 = np.float64
+
+
+def _method(method, options):
+    """(name, options) from a method name with keyword options, or a typed method object."""
+    if isinstance(method, str):
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+        return method, options
+    if isinstance(method, tuple(BY_NAME.values())):
+        if options:
+            raise ValueError(f"give options either in the method object {method!r} or as keywords, not both")
+        return method.name, method.options()
+    raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)} or a clumpprops.methods object")
 
 
 def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **options) -> MassProperties:
@@ -20,61 +45,121 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
         or a list of M arrays (N_m, 3) for clumps of different sizes.
     radii : array (N,) in m, (M, N), or a list of M arrays (N_m,); all > 0.
     density : kg/m^3, > 0 (the solid density of the member spheres).
-    method :
-        ``"exact"`` (default): the union of the spheres, any overlap pattern (see
-        docs/exact_method.md); round-off accurate.
-        ``"pairwise"``: the paper's eqs. (1)-(7); raises ClumpGeometryError where three
-        spheres share a region.
-        ``"sum"``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
-        ``"montecarlo"``: options ``n_samples`` (default 10**6), ``seed``; sets
-        ``standard_error``.
-        ``"voxel"``: option ``discretization`` (default 10), YADE's regular-grid scheme.
+    method : a name, or a typed object of :mod:`clumpprops.methods`
+        ``"exact"`` / ``Exact()`` (default): the union of the spheres, any overlap
+        pattern (see docs/exact_method.md); round-off accurate.
+        ``"pairwise"`` / ``Pairwise()``: the paper's eqs. (1)-(7); raises
+        ClumpGeometryError where three spheres share a region.
+        ``"sum"`` / ``Sum()``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
+        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``.
+        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme.
 
     Returns
     -------
     MassProperties, with a leading M axis on every array for batch input.
     """
     rho = _input.check_density(density)
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    allowed = {"montecarlo": {"n_samples", "seed", "chunk"}, "voxel": {"discretization"}}.get(method, set())
+    name, options = _method(method, options)
+    allowed = {"montecarlo": {"n_samples", "seed", "chunk"}, "voxel": {"discretization"}}.get(name, set())
     extra = set(options) - allowed
     if extra:
-        raise ValueError(f"method {method!r} takes no option(s) {sorted(extra)}; it accepts {sorted(allowed) or 'none'}")
+        raise ValueError(f"method {name!r} takes no option(s) {sorted(extra)}; it accepts {sorted(allowed) or 'none'}")
+    if name in _CORE:
+        return _compiled(centers, radii, rho, name)
     sph = _input.normalize(centers, radii)
-    # overflow (absurdly large input) is reported by finish() as a ValueError, not as a warning
     with np.errstate(over="ignore"):
-        if sph.n_clumps <= _BATCH_CHUNK or method not in ("exact", "pairwise", "sum"):
-            return _compute(sph, rho, method, options)
-        # large batches in blocks of clumps: temporaries stay in cache (~1.5x faster)
-        parts = [_compute(sph.clumps(m0, m0 + _BATCH_CHUNK), rho, method, options)
-                 for m0 in range(0, sph.n_clumps, _BATCH_CHUNK)]
-    return MassProperties(
-        *(np.concatenate([getattr(p, name) for p in parts]) for name in MassProperties._ARRAYS),
-        method=method,
-        density=rho,
-    )
+        if name == "montecarlo":
+            from .baselines import montecarlo_moments
 
-
-def _compute(sph, rho, method, options):
-    if method == "pairwise":
-        from .pairwise import pairwise_moments
-
-        V, S, Q = pairwise_moments(sph)
-    elif method == "sum":
-        from .pairwise import sphere_moments
-
-        V, S, Q = sphere_moments(sph)
-    elif method == "exact":
-        from .exact import exact_moments
-
-        V, S, Q = exact_moments(sph)
-    elif method == "montecarlo":
-        from .baselines import montecarlo_moments
-
-        return montecarlo_moments(sph, rho, **options)
-    else:  # voxel
+            return montecarlo_moments(sph, rho, **options)
         from .baselines import voxel_moments
 
         V, S, Q = voxel_moments(sph, **options)
-    return finish(V, S, Q, sph.origin, rho, method, sph.batched)
+        return finish(V, S, Q, sph.origin, rho, name, sph.batched)
+
+
+def _flatten(centers, radii):
+    """(centers (S,3), radii (S,), starts (M+1,) or None, N if regular, M, batched), or None if invalid."""
+    if isinstance(centers, (list, tuple)) and isinstance(radii, (list, tuple)) and len(centers) > 0 \
+            and all(np.ndim(c) == 2 for c in centers):
+        # ragged batch: list of (N_m, 3) and list of (N_m,)
+        M = len(centers)
+        if len(radii) != M:
+            return None
+        if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
+            try:
+                c = np.asarray(centers[0], dtype=_F64)
+                r = np.asarray(radii[0], dtype=_F64)
+            except (TypeError, ValueError):
+                return None
+            if c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
+                return None
+            return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
+        try:
+            nc = np.fromiter(map(len, centers), np.int64, M)
+            nr = np.fromiter(map(len, radii), np.int64, M)
+            c = np.concatenate(centers, axis=0, dtype=_F64)
+            r = np.concatenate(radii, axis=0, dtype=_F64)
+        except (TypeError, ValueError):
+            return None
+        if not np.array_equal(nc, nr) or np.any(nc == 0) or c.ndim != 2 or c.shape[1:] != (3,) or r.shape != (len(c),):
+            return None
+        starts = np.zeros(M + 1, np.int64)
+        np.cumsum(nc, out=starts[1:])
+        N = int(nc[0]) if np.all(nc == nc[0]) else 0
+        return np.ascontiguousarray(c), r, (None if N else starts), N, M, True
+    try:
+        c = np.asarray(centers, dtype=_F64)
+        r = np.asarray(radii, dtype=_F64)
+    except (TypeError, ValueError):
+        return None
+    if c.ndim == 2 and c.shape[1] == 3 and r.shape == (c.shape[0],) and c.shape[0] > 0:
+        return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, False
+    if c.ndim == 3 and c.shape[2] == 3 and r.shape == c.shape[:2] and c.shape[0] > 0 and c.shape[1] > 0:
+        M, N = c.shape[:2]
+        return np.ascontiguousarray(c).reshape(M * N, 3), np.ascontiguousarray(r).reshape(M * N), None, N, M, True
+    return None
+
+
+def _compiled(centers, radii, rho, name):
+    flat = _flatten(centers, radii)
+    if flat is None:
+        _input.normalize(centers, radii)  # raises ValueError naming the problem
+        raise ValueError("centers and radii do not form clumps of spheres")  # pragma: no cover
+    c, r, starts, N, M, batched = flat
+    mass, vol = np.empty(M), np.empty(M)
+    com, inertia = np.empty((M, 3)), np.empty((M, 3, 3))
+    w, axes = np.empty((M, 3)), np.empty((M, 3, 3))
+    code = _CORE[name]
+    for m0 in range(0, M, _BATCH_CHUNK):
+        status = _core.run(code, c, r, starts, N, m0, min(M, m0 + _BATCH_CHUNK), rho, True, True,
+                           mass, vol, com, inertia, w, axes)
+        if status[0]:
+            _core_error(status, centers, radii, batched, name)
+    for a in (mass, vol, com, inertia, w, axes):
+        a.flags.writeable = False
+    if not batched:
+        return MassProperties._make(float(mass[0]), float(vol[0]), com[0], inertia[0], w[0], axes[0], name, rho)
+    return MassProperties._make(mass, vol, com, inertia, w, axes, name, rho)
+
+
+def _core_error(status, centers, radii, batched, name):
+    code, m = status[0], status[1]
+    where = f" of clump {m}" if batched else ""
+    if code == _core.TRIPLE:
+        from .pairwise import ClumpGeometryError
+
+        i, j, k, count = status[2:]
+        raise ClumpGeometryError(
+            f"spheres {(i, j, k)}{where} share a common region (a triple overlap; {count} such triple(s) in "
+            "that clump): the pairwise method (paper eqs. 1-7) would be wrong there; use method='exact'"
+        )
+    if code == _core.OVERFLOW:
+        raise ValueError(
+            "the clump's moments overflow float64 (input too large: radius^5 * density must stay "
+            f"below ~1e308 in SI units){where}; rescale the input"
+        )
+    if code == _core.NONPOSITIVE_VOLUME:
+        raise ArithmeticError(f"internal error in method {name!r}: non-positive volume{where}")
+    _input.normalize(centers, radii)  # bad values (NaN, inf, radius <= 0): raises naming the problem
+    raise ValueError(f"invalid sphere data{where}")  # pragma: no cover

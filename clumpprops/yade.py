@@ -138,7 +138,7 @@ def _rotation(q):
     return np.array([[float(m[i, j]) for j in range(3)] for i in range(3)])
 
 
-# --------------------------------------------------------------------------- pure numpy part
+# --------------------------------------------------------------------------- the correction member (no YADE objects)
 
 
 def _sphere_moments(centers, radii, densities):
@@ -306,6 +306,10 @@ def exact_properties(clump_id, method=DEFAULT_METHOD):
 def _batch_properties(xs, rs, rhos, method):
     """mass, com, inertia arrays for a ragged batch, calling the library once per density."""
     M = len(xs)
+    d0 = rhos[0][0]
+    if all(rho[0] == d0 for rho in rhos):  # one density (the usual case): one call
+        mp = mass_properties(xs, rs, density=d0, method=method)
+        return mp.mass, mp.center_of_mass, mp.inertia
     mass = np.empty(M)
     com = np.empty((M, 3))
     inertia = np.empty((M, 3, 3))

@@ -6,8 +6,10 @@
 #                                                      # (scripts/debian13.sh run ...): YADE 2025.2
 #
 # Steps (each a function below, run in this order; add new steps the same way):
-#   debian_packages  YADE, LIGGGHTS and LAMMPS (exporter checks), Dask (the study engine) and the scientific stack for /usr/bin/python3 (YADE's interpreter), via apt
+#   debian_packages  YADE, LIGGGHTS and LAMMPS (exporter checks), Dask (the study engine), pybind11 and g++
+#                    (the compiled core) and the scientific stack for /usr/bin/python3 (YADE's interpreter), via apt
 #   make_venv        $VENV: a venv of /usr/bin/python3 that sees Debian's packages and can `import yade`
+#   build_core       the compiled core (C++17 + pybind11), in place
 #   install_package  clumpprops in editable mode into $VENV (console script `clumpprops`)
 #   report           one line: clumpprops, Python, numpy and the YADE version that was set up
 #
@@ -19,7 +21,7 @@ cd "$(dirname "$0")/.."
 VENV="${VENV:-.venv}"
 PY="$VENV/bin/python"
 YADE_PY=/usr/lib/x86_64-linux-gnu/yade-double/py
-PKGS="yade liggghts lammps python3-distributed python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools"
+PKGS="yade liggghts lammps python3-distributed python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-venv python3-pip python3-setuptools python3-pybind11 python3-dev g++"
 
 log() { echo "[setup] $*"; }
 
@@ -54,6 +56,18 @@ make_venv() {
   echo "$YADE_PY" > "$site/yade_double.pth"
 }
 
+build_core() {
+  # the compiled core (C++17 header clumpprops/core/clumpprops.hpp + pybind11 module): built in
+  # place, beside the sources, when missing or older than them (one .so per Python: the Debian 12
+  # and Debian 13 builds sit side by side)
+  local ext
+  ext=$("$PY" -c 'import sysconfig; print("clumpprops/core/_core" + sysconfig.get_config_var("EXT_SUFFIX"))')
+  if [ ! -f "$ext" ] || [ -n "$(find clumpprops/core/clumpprops.hpp clumpprops/core/_core.cpp setup.py -newer "$ext")" ]; then
+    log "building the compiled core ($ext)"
+    "$PY" setup.py -q build_ext --inplace >/dev/null
+  fi
+}
+
 install_package() {
   if ! "$PY" -I -c 'import clumpprops, sys; sys.exit(0 if clumpprops.__file__.startswith("'"$PWD"'/") else 1)' 2>/dev/null; then
     log "installing clumpprops (editable) into $VENV"
@@ -70,5 +84,6 @@ report() {
 
 debian_packages
 make_venv
+build_core
 install_package
 report

@@ -1,4 +1,11 @@
-"""Exact volume moments of a union of spheres with any overlap pattern (``method="exact"``).
+"""The numpy implementation of the exact method: a TEST ORACLE only (not used by the library).
+
+``method="exact"`` runs the compiled core (clumpprops/core/clumpprops.hpp).  This is the
+earlier, vectorised numpy implementation of the same mathematics with an independent
+arc classification (per-arc sign tests instead of coverage depth); tests compare the
+core with it on thousands of random and near-degenerate clumps.
+
+Exact volume moments of a union of spheres with any overlap pattern.
 
 The paper's eqs. (1)-(7) subtract pairwise lenses and are exact only where no point
 lies in three spheres.  This module computes the same quantities (volume, centre of

@@ -1,0 +1,1059 @@
+// clumpprops.hpp -- exact mass properties of sphere clumps (unions of spheres), header-only C++17.
+//
+// Three methods on one clump (N spheres, centres relative to a clump origin o):
+//   exact_moments     the union of the spheres, any overlap pattern (docs/exact_method.md)
+//   pairwise_moments  the paper's eqs. (1)-(7): summed spheres minus pairwise lenses, with the
+//                     geometric triple-overlap check
+//   sum_moments       overlaps counted twice (YADE appendClumped, LAMMPS fix rigid)
+// Each returns the volume moments V = int dV, S = int x dV, Q = int x x^T dV about o; finish()
+// turns them into mass, centre of mass, inertia about the centre of mass and principal axes.
+//
+// No dependencies beyond the standard library, no allocation in the steady state (a Workspace
+// keeps its buffers), one thread.  Engines can include this file directly; the Python package
+// wraps it in clumpprops/core/_core.cpp.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace clumpprops {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTwoPi = 2.0 * kPi;
+constexpr double kFourPi = 4.0 * kPi;
+// pairs whose rim circle is smaller than this (relative to both radii) are treated as tangent
+constexpr double kRhoTangent = 1e-6;
+// a sphere protruding from another by at most this fraction of the smaller radius is inside it
+// (scale-aware containment, docs/exact_method.md section 2a)
+constexpr double kTauNested = 1e-13;
+// two cap circles of one unit sphere closer than this everywhere are one circle (prune_caps)
+constexpr double kCoincidentCaps = 1e-13;
+// safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
+constexpr double kCoincident = 1e-14;
+
+struct Moments {
+  double V = 0.0;
+  double S[3] = {0.0, 0.0, 0.0};
+  double Q[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  void clear() { *this = Moments(); }
+};
+
+struct Pair {
+  int a, b;      // a < b, indices inside the clump
+  double D;      // centre distance
+  double e[3];   // (c_b - c_a) / D, (0, 0, 1) if D == 0
+};
+
+struct Cap {
+  int owner, other;  // cap cut on sphere `owner` by sphere `other`
+  double n[3];       // unit axis towards `other`
+  double h, rho;     // cap u.n > h on the unit sphere, rho = sqrt(1 - h^2) (from factored forms)
+  double alpha;      // angular radius atan2(rho, h) (set by prune_caps)
+};
+
+// Triple overlap found by the pairwise method's check (local sphere indices, sorted).
+struct TripleOverlap {
+  int i = -1, j = -1, k = -1;
+  long count = 0;
+};
+
+// ------------------------------------------------------------------ small helpers
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// pseudo-angle of (x, y): monotone in atan2(y, x) mod 2 pi, in [0, 4); relative resolution of
+// double near every angle (used only to sort crossing points; angles come from atan2).
+inline double diamond(double x, double y) {
+  if (y >= 0.0) return x >= 0.0 ? y / (x + y + (x + y == 0.0 ? 1.0 : 0.0)) : 1.0 - x / (-x + y);
+  return x < 0.0 ? 2.0 - y / (-x - y) : 3.0 + x / (x - y);
+}
+
+// ------------------------------------------------------------------ pair search
+// Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps; above, sort and sweep
+// along the axis of largest extent (a pair can only overlap if its intervals c_x +- r overlap),
+// so a clump where each sphere meets a bounded number of others costs O(N log N + overlaps).
+struct PairSearch {
+  std::vector<int> order;
+  std::vector<double> lo;
+
+  template <class F>
+  void for_each_candidate(const double* c, const double* r, int n, F&& f) {
+    if (n <= 40) {
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) f(i, j);
+      return;
+    }
+    double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]};
+    for (int i = 1; i < n; ++i)
+      for (int x = 0; x < 3; ++x) {
+        mn[x] = std::min(mn[x], c[3 * i + x]);
+        mx[x] = std::max(mx[x], c[3 * i + x]);
+      }
+    int ax = 0;
+    for (int x = 1; x < 3; ++x)
+      if (mx[x] - mn[x] > mx[ax] - mn[ax]) ax = x;
+    order.resize(n);
+    lo.resize(n);
+    for (int i = 0; i < n; ++i) {
+      order[i] = i;
+      lo[i] = c[3 * i + ax] - r[i];
+    }
+    std::sort(order.begin(), order.end(), [&](int p, int q) { return lo[p] < lo[q] || (lo[p] == lo[q] && p < q); });
+    for (int p = 0; p < n; ++p) {
+      const int i = order[p];
+      const double hi = c[3 * i + ax] + r[i];
+      for (int q = p + 1; q < n; ++q) {
+        const int j = order[q];
+        if (!(lo[j] < hi)) break;
+        f(std::min(i, j), std::max(i, j));
+      }
+    }
+  }
+
+  void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
+    out.clear();
+    for_each_candidate(c, r, n, [&](int a, int b) {
+      const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
+      const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+      if (D < r[a] + r[b]) {
+        Pair p;
+        p.a = a;
+        p.b = b;
+        p.D = D;
+        if (D > 0.0) {
+          p.e[0] = dx / D;
+          p.e[1] = dy / D;
+          p.e[2] = dz / D;
+        } else {
+          p.e[0] = 0.0;
+          p.e[1] = 0.0;
+          p.e[2] = 1.0;
+        }
+        out.push_back(p);
+      }
+    });
+  }
+};
+
+// ------------------------------------------------------------------ whole spheres, the summed baseline
+inline void add_ball(const double* c, double r, Moments& m) {
+  const double v = (4.0 / 3.0) * kPi * r * r * r;
+  const double iso = v * r * r / 5.0;
+  m.V += v;
+  for (int x = 0; x < 3; ++x) m.S[x] += v * c[x];
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) m.Q[3 * x + y] += v * c[x] * c[y] + (x == y ? iso : 0.0);
+}
+
+inline void sum_moments(const double* c, const double* r, int n, Moments& m) {
+  m.clear();
+  for (int i = 0; i < n; ++i) add_ball(c + 3 * i, r[i], m);
+}
+
+// ------------------------------------------------------------------ unit-sphere moments -> volume moments
+// Moments of the exposed region E of one unit sphere: a = int_E 1, m1 = int_E u, m2 = int_E u u^T,
+// and m3 = int_E u u u (dOmega) contracted with the sphere centre c: m3c_xy = sum_z m3_xyz c_z
+// (the only way m3 enters).  Volume moments (divergence theorem, docs/exact_method.md sec. 1).
+struct SurfaceMoments {
+  double a;
+  double m1[3];
+  double m2[9];
+  double m3c[9];
+};
+
+inline void add_from_surface(const double* c, double r, const SurfaceMoments& s, Moments& out) {
+  const double cm1 = dot3(c, s.m1);
+  const double base = r * s.a + cm1;
+  const double r2 = r * r;
+  out.V += r2 / 3.0 * base;
+  double m2c[3];
+  for (int x = 0; x < 3; ++x) m2c[x] = s.m2[3 * x] * c[0] + s.m2[3 * x + 1] * c[1] + s.m2[3 * x + 2] * c[2];
+  for (int x = 0; x < 3; ++x) out.S[x] += r2 / 4.0 * (c[x] * base + r2 * s.m1[x] + r * m2c[x]);
+  const double f = r2 / 5.0;
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) {
+      const double m3c = s.m3c[3 * x + y];
+      out.Q[3 * x + y] += f * (c[x] * c[y] * base + r2 * (c[x] * s.m1[y] + s.m1[x] * c[y]) +
+                               r * (c[x] * m2c[y] + m2c[x] * c[y]) + r2 * r * s.m2[3 * x + y] + r2 * m3c);
+    }
+}
+
+// the unit sphere minus one cap u.n > h, closed form (docs/exact_method.md; 1 - h from rho^2/(1+h))
+inline void single_cap(const double* n, double h, double rho, const double* c, SurfaceMoments& s) {
+  const double w = h > 0.0 ? rho * rho / (1.0 + h) : 1.0 - h;  // 1 - h
+  const double oph = 2.0 - w;
+  const double one_m_h2 = w * oph;
+  const double one_m_h3 = w * (1.0 + h + h * h);
+  const double one_m_h4 = one_m_h2 * (1.0 + h * h);
+  s.a = kFourPi - 2.0 * kPi * w;
+  for (int x = 0; x < 3; ++x) s.m1[x] = -(kPi * one_m_h2) * n[x];
+  const double c_nn = 2.0 * kPi * one_m_h3 / 3.0, c_p = kPi * (w - one_m_h3 / 3.0);
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) {
+      const double nn = n[x] * n[y];
+      const double P = (x == y ? 1.0 : 0.0) - nn;
+      s.m2[3 * x + y] = (x == y ? kFourPi / 3.0 : 0.0) - (c_nn * nn + c_p * P);
+    }
+  const double alpha = 0.5 * kPi * one_m_h4;
+  const double beta = kPi * (0.5 * one_m_h2 - 0.25 * one_m_h4);
+  // m3 = -(alpha n n n + beta sym(n P)), sym(n P)_xyz = n_x P_yz + n_y P_xz + n_z P_xy; contracted with c
+  const double nc = dot3(n, c);
+  double Pc[3];
+  for (int x = 0; x < 3; ++x) Pc[x] = c[x] - n[x] * nc;
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) {
+      const double Pxy = (x == y ? 1.0 : 0.0) - n[x] * n[y];
+      s.m3c[3 * x + y] = -(alpha * n[x] * n[y] * nc + beta * (n[x] * Pc[y] + n[y] * Pc[x] + nc * Pxy));
+    }
+}
+
+// ------------------------------------------------------------------ the arrangement of caps on one sphere
+// The exposed region of a unit sphere with K >= 2 caps (docs/exact_method.md, sections 2-3).
+class Arrangement {
+ public:
+  struct Circle {
+    double n[3], e1[3], e2[3];
+    double h, rho, alpha;
+    int rank;
+  };
+  struct Event {
+    double key;  // pseudo-angle on the circle (sort key)
+    double c, s;  // cos t, sin t of the point in the circle's own frame
+    int type;     // +1: the circle enters the other cap here, -1: leaves it
+    int pt;       // index of the point's angle cache
+  };
+
+  std::vector<Circle> C;
+  std::vector<double> A, B, R, M, G;  // K x K, [k*K + j]: f_kj(t) = u_k(t).n_j - h_j = M + A cos t + B sin t
+  std::vector<signed char> cross, coinc;  // K x K, symmetric
+  std::vector<std::vector<Event>> ev;
+  std::vector<int> enter_gt_leave;  // per circle: crossed caps whose entry key > exit key (inside at t = 0)
+  std::vector<double> ang;  // angle cache per point (NaN until computed)
+
+  static void basis(const double* n, double* e1, double* e2) {
+    double ax[3] = {1.0, 0.0, 0.0};
+    if (!(std::fabs(n[0]) < 0.9)) {
+      ax[0] = 0.0;
+      ax[1] = 1.0;
+    }
+    const double d = dot3(ax, n);
+    for (int x = 0; x < 3; ++x) e1[x] = ax[x] - d * n[x];
+    const double l = std::sqrt(dot3(e1, e1));
+    for (int x = 0; x < 3; ++x) e1[x] /= l;
+    e2[0] = n[1] * e1[2] - n[2] * e1[1];
+    e2[1] = n[2] * e1[0] - n[0] * e1[2];
+    e2[2] = n[0] * e1[1] - n[1] * e1[0];
+  }
+
+  // caps: K caps of one sphere, sorted by `other` (their rank for ties)
+  void compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out);
+
+ private:
+  void choose_pole(int K, double* q);
+};
+
+inline void Arrangement::choose_pole(int K, double* q) {
+  // candidate poles: 26 directions of a cube and 6 irrational ones.  The 1-form of the area is
+  // singular at -q: take the first candidate whose -q is at least delta (angle) from every circle,
+  // trying delta = 0.35, 0.15, 0.05 rad; else the candidate farthest from all circles.
+  static const double cand[32][3] = {
+      {0.5773502691896258, 0.5773502691896258, 0.5773502691896258},
+      {-0.31622776601683794, 0.6324555320336759, 0.7071067811865476},
+      {0.8017837257372732, -0.5345224838248488, 0.2672612419124244},
+      {-0.6859943405700354, -0.5144957554275265, 0.5144957554275265},
+      {0.2182178902359924, 0.4364357804719848, -0.8728715609439696},
+      {-0.4082482904638631, -0.8164965809277261, -0.4082482904638631},
+      {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1},
+      {0.7071067811865476, 0.7071067811865476, 0}, {0.7071067811865476, -0.7071067811865476, 0},
+      {-0.7071067811865476, 0.7071067811865476, 0}, {-0.7071067811865476, -0.7071067811865476, 0},
+      {0.7071067811865476, 0, 0.7071067811865476}, {0.7071067811865476, 0, -0.7071067811865476},
+      {-0.7071067811865476, 0, 0.7071067811865476}, {-0.7071067811865476, 0, -0.7071067811865476},
+      {0, 0.7071067811865476, 0.7071067811865476}, {0, 0.7071067811865476, -0.7071067811865476},
+      {0, -0.7071067811865476, 0.7071067811865476}, {0, -0.7071067811865476, -0.7071067811865476},
+      {0.5773502691896258, 0.5773502691896258, -0.5773502691896258},
+      {0.5773502691896258, -0.5773502691896258, 0.5773502691896258},
+      {0.5773502691896258, -0.5773502691896258, -0.5773502691896258},
+      {-0.5773502691896258, 0.5773502691896258, 0.5773502691896258},
+      {-0.5773502691896258, 0.5773502691896258, -0.5773502691896258},
+      {-0.5773502691896258, -0.5773502691896258, 0.5773502691896258},
+      {-0.5773502691896258, -0.5773502691896258, -0.5773502691896258},
+      {-0.5773502691896258, 0.5773502691896258, -0.5773502691896258}};
+  static const double deltas[3] = {0.35, 0.15, 0.05};
+  static const double cosd[3] = {std::cos(0.35), std::cos(0.15), std::cos(0.05)};
+  static const double sind[3] = {std::sin(0.35), std::sin(0.15), std::sin(0.05)};
+  for (int di = 0; di < 3; ++di) {
+    const double delta = deltas[di], cd = cosd[di], sd = sind[di];
+    for (const auto& qq : cand) {
+      bool ok = true;
+      for (int k = 0; k < K && ok; ++k) {
+        const Circle& c = C[k];
+        const double x = -dot3(qq, c.n);  // cos of the angle between -q and n
+        // |angle - alpha| >= delta  <=>  angle >= alpha + delta or angle <= alpha - delta
+        const bool far_out = c.alpha + delta <= kPi && x <= c.h * cd - c.rho * sd;
+        const bool far_in = c.alpha - delta >= 0.0 && x >= c.h * cd + c.rho * sd;
+        ok = far_out || far_in;
+      }
+      if (ok) {
+        q[0] = qq[0];
+        q[1] = qq[1];
+        q[2] = qq[2];
+        return;
+      }
+    }
+  }
+  double best = -1.0;
+  int ib = 0;
+  for (int p = 0; p < 32; ++p) {
+    double mn = 1e300;
+    for (int k = 0; k < K; ++k) {
+      const double x = std::max(-1.0, std::min(1.0, -dot3(cand[p], C[k].n)));
+      mn = std::min(mn, std::fabs(std::acos(x) - C[k].alpha));
+    }
+    if (mn > best) {
+      best = mn;
+      ib = p;
+    }
+  }
+  q[0] = cand[ib][0];
+  q[1] = cand[ib][1];
+  q[2] = cand[ib][2];
+}
+
+inline void Arrangement::compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out) {
+  C.resize(K);
+  for (int k = 0; k < K; ++k) {
+    Circle& c = C[k];
+    for (int x = 0; x < 3; ++x) c.n[x] = caps[k].n[x];
+    c.h = caps[k].h;
+    c.rho = caps[k].rho;
+    c.alpha = caps[k].alpha;
+    c.rank = caps[k].other;
+    basis(c.n, c.e1, c.e2);
+  }
+  const std::size_t KK = static_cast<std::size_t>(K) * K;
+  A.resize(KK);
+  B.resize(KK);
+  R.resize(KK);
+  M.resize(KK);
+  G.resize(KK);
+  cross.assign(KK, 0);
+  coinc.assign(KK, 0);
+  if (static_cast<int>(ev.size()) < K) ev.resize(K);
+  for (int k = 0; k < K; ++k) ev[k].clear();
+  enter_gt_leave.assign(K, 0);
+  ang.clear();
+  // f_kj for every ordered pair
+  for (int k = 0; k < K; ++k) {
+    const Circle& ck = C[k];
+    for (int j = 0; j < K; ++j) {
+      if (j == k) continue;
+      const Circle& cj = C[j];
+      const std::size_t kj = static_cast<std::size_t>(k) * K + j;
+      const double g = dot3(ck.n, cj.n);
+      const double a = ck.rho * dot3(ck.e1, cj.n), b = ck.rho * dot3(ck.e2, cj.n);
+      A[kj] = a;
+      B[kj] = b;
+      R[kj] = std::sqrt(a * a + b * b);
+      M[kj] = ck.h * g - cj.h;
+      G[kj] = g;
+    }
+  }
+  // crossings, each computed once on the lower circle k < j and located on j from the same point
+  for (int k = 0; k < K; ++k) {
+    const Circle& ck = C[k];
+    for (int j = k + 1; j < K; ++j) {
+      const Circle& cj = C[j];
+      const std::size_t kj = static_cast<std::size_t>(k) * K + j, jk = static_cast<std::size_t>(j) * K + k;
+      const double Rk = R[kj], mk = M[kj];
+      if (Rk <= kCoincident && std::fabs(mk) <= kCoincident && G[kj] > 0.0) {
+        coinc[kj] = coinc[jk] = 1;  // one circle, caps on the same side
+        continue;
+      }
+      if (!(Rk > 0.0)) continue;
+      const double ca = -mk / Rk;
+      if (!(std::fabs(ca) < 1.0)) continue;
+      cross[kj] = cross[jk] = 1;
+      const double sa = std::sqrt((1.0 - ca) * (1.0 + ca));
+      const double cp = A[kj] / Rk, sp = B[kj] / Rk;
+      // leave at phi + ac, enter at phi - ac (f_kj = M + R cos(t - phi) decreases through 0 at phi + ac)
+      const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
+      const double ce = cp * ca + sp * sa, se = sp * ca - cp * sa;
+      double Pl[3], Pe[3];
+      for (int x = 0; x < 3; ++x) {
+        Pl[x] = ck.h * ck.n[x] + ck.rho * (cl * ck.e1[x] + sl * ck.e2[x]);
+        Pe[x] = ck.h * ck.n[x] + ck.rho * (ce * ck.e1[x] + se * ck.e2[x]);
+      }
+      const int pl = static_cast<int>(ang.size());
+      ang.push_back(NAN);  // pl: the leave point on k
+      ang.push_back(NAN);  // pl + 1: the enter point on k
+      ang.push_back(NAN);  // pl + 2: the first point seen on j
+      ang.push_back(NAN);  // pl + 3: the second point seen on j
+      const double kl = diamond(cl, sl), ke = diamond(ce, se);
+      ev[k].push_back({kl, cl, sl, -1, pl});
+      ev[k].push_back({ke, ce, se, +1, pl + 1});
+      if (ke > kl) ++enter_gt_leave[k];
+      // on j: where k leaves cap j, j enters cap k, and vice versa
+      double xl = dot3(Pl, cj.e1), yl = dot3(Pl, cj.e2), xe = dot3(Pe, cj.e1), ye = dot3(Pe, cj.e2);
+      const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
+      if (nl > 0.0) {
+        xl /= nl;
+        yl /= nl;
+      }
+      if (ne > 0.0) {
+        xe /= ne;
+        ye /= ne;
+      }
+      const double jl = diamond(xl, yl), je = diamond(xe, ye);
+      ev[j].push_back({jl, xl, yl, +1, pl + 2});
+      ev[j].push_back({je, xe, ye, -1, pl + 3});
+      if (jl > je) ++enter_gt_leave[j];
+    }
+  }
+  // pole for the area form
+  double q[3];
+  choose_pole(K, q);
+  double area_U = 0.0;
+  bool in_U = false;
+  double J1[3] = {0, 0, 0}, J2s[9] = {0}, K3[9] = {0};
+  for (int k = 0; k < K; ++k) {
+    const Circle& ck = C[k];
+    if (-dot3(q, ck.n) > ck.h) in_U = true;
+    // caps that do not cross circle k cover all of it or none of it
+    bool covered = false;
+    for (int j = 0; j < K && !covered; ++j) {
+      if (j == k) continue;
+      const std::size_t kj = static_cast<std::size_t>(k) * K + j;
+      if (cross[kj]) continue;
+      if (coinc[kj])
+        covered = C[j].rank < ck.rank;  // of one circle, the lower-ranked cap bounds the region
+      else
+        covered = M[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
+    }
+    if (covered) continue;
+    // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
+    std::vector<Event>& E = ev[k];
+    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, Iccc = 0, Isss = 0, Iccs = 0, Icss = 0;
+    double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
+    // pole in the circle's frame
+    const double qn = dot3(q, ck.n), qe1 = dot3(q, ck.e1), qe2 = dot3(q, ck.e2);
+    const double Dd = 1.0 + ck.h * qn;
+    const double qh = std::sqrt(qe1 * qe1 + qe2 * qe2);
+    const double Rr = ck.rho * qh;
+    const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
+    const double sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
+    const double cdl = qh > 0.0 ? qe1 / qh : 1.0, sdl = qh > 0.0 ? qe2 / qh : 0.0;
+    auto Gpart = [&](double c, double s) {
+      // G(t) - (t - dl)/2 = atan2((k - 1) sin(t - dl), (1 + k) + (1 - k) cos(t - dl))
+      const double sp = s * cdl - c * sdl, cpp = c * cdl + s * sdl;
+      return std::atan2((kk - 1.0) * sp, (1.0 + kk) + (1.0 - kk) * cpp);
+    };
+    if (E.empty()) {
+      Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
+      dG = 0.0;
+    } else {
+      std::sort(E.begin(), E.end(), [](const Event& x, const Event& y) {
+        return x.key < y.key || (x.key == y.key && x.type > y.type);
+      });
+      int depth = enter_gt_leave[k];
+      const int P = static_cast<int>(E.size());
+      auto angle = [&](const Event& e) {
+        double& t = ang[e.pt];
+        if (std::isnan(t)) {
+          t = std::atan2(e.s, e.c);
+          if (t < 0.0) t += kTwoPi;
+        }
+        return t;
+      };
+      for (int p = 0; p < P; ++p) {
+        depth += E[p].type;
+        if (depth != 0) continue;
+        const Event& e1 = E[p];
+        const Event& e2 = E[p + 1 < P ? p + 1 : 0];
+        const double t1 = angle(e1);
+        double t2 = angle(e2);
+        if (p + 1 >= P) t2 += kTwoPi;
+        const double c1 = e1.c, s1 = e1.s, c2 = e2.c, s2 = e2.s;
+        Dt += t2 - t1;
+        Ic += s2 - s1;
+        Is += c1 - c2;
+        S2 += 2.0 * (s2 * c2 - s1 * c1);
+        Ics += 0.5 * (s2 * s2 - s1 * s1);
+        const double s1c = s1 * s1 * s1, s2c = s2 * s2 * s2, c1c = c1 * c1 * c1, c2c = c2 * c2 * c2;
+        Iccc += (s2 - s2c / 3.0) - (s1 - s1c / 3.0);
+        Isss += (-c2 + c2c / 3.0) - (-c1 + c1c / 3.0);
+        Iccs += -(c2c - c1c) / 3.0;
+        Icss += (s2c - s1c) / 3.0;
+        dG += Gpart(c2, s2) - Gpart(c1, s1);
+      }
+      if (Dt == 0.0 && dG == 0.0) continue;
+    }
+    const double Icc = 0.5 * Dt + 0.25 * S2, Iss = 0.5 * Dt - 0.25 * S2;
+    // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
+    area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
+    // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
+    // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho).  Then
+    //   J1 = sum_p W1_p a_p E_p,   J2 = sum_pq W2_pq a_p b_q E_p (x) E_q,   J3 = sum_pqr W3_pqr a_p b_q b_r E_p E_q E_r,
+    // and m3 enters only contracted with the sphere centre c (local coordinates cl):
+    //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,
+    //   Lk_xy = a_x tc_xy + a_y tc_yx + b_x b_y sum_p a_p cl_p W3_pxy,  tc_pq = b_q sum_r W3_pqr b_r cl_r.
+    const double W1[3] = {Dt, Ic, Is};
+    const double W2[3][3] = {{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}};
+    const double W3[3][3][3] = {{{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}},
+                                {{Ic, Icc, Ics}, {Icc, Iccc, Iccs}, {Ics, Iccs, Icss}},
+                                {{Is, Ics, Iss}, {Ics, Iccs, Icss}, {Iss, Icss, Isss}}};
+    const double av[3] = {-(ck.rho * ck.rho), ck.h * ck.rho, ck.h * ck.rho};
+    const double bv[3] = {ck.h, ck.rho, ck.rho};
+    const double* Ef[3] = {ck.n, ck.e1, ck.e2};
+    const double cl[3] = {dot3(ck.n, centre), dot3(ck.e1, centre), dot3(ck.e2, centre)};
+    double bc[3], ac[3];
+    for (int r = 0; r < 3; ++r) {
+      bc[r] = bv[r] * cl[r];
+      ac[r] = av[r] * cl[r];
+    }
+    double tc[3][3];
+    for (int p = 0; p < 3; ++p)
+      for (int qq = 0; qq < 3; ++qq) tc[p][qq] = bv[qq] * (W3[p][qq][0] * bc[0] + W3[p][qq][1] * bc[1] + W3[p][qq][2] * bc[2]);
+    double L2[3][3], Lk[3][3];
+    for (int x = 0; x < 3; ++x)
+      for (int y = 0; y < 3; ++y) {
+        L2[x][y] = W2[x][y] * (av[x] * bv[y] + av[y] * bv[x]);  // J2 + J2^T (W2 is symmetric)
+        Lk[x][y] = av[x] * tc[x][y] + av[y] * tc[y][x] +
+                   bv[x] * bv[y] * (ac[0] * W3[0][x][y] + ac[1] * W3[1][x][y] + ac[2] * W3[2][x][y]);
+      }
+    for (int p = 0; p < 3; ++p)
+      for (int x = 0; x < 3; ++x) J1[x] += W1[p] * av[p] * Ef[p][x];
+    // rotate the two symmetric local matrices to the sphere's axes: M = sum_pq L_pq E_p E_q^T
+    double RS[3][3], RK[3][3];
+    for (int p = 0; p < 3; ++p)
+      for (int j = 0; j < 3; ++j) {
+        RS[p][j] = L2[p][0] * Ef[0][j] + L2[p][1] * Ef[1][j] + L2[p][2] * Ef[2][j];
+        RK[p][j] = Lk[p][0] * Ef[0][j] + Lk[p][1] * Ef[1][j] + Lk[p][2] * Ef[2][j];
+      }
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) {
+        J2s[3 * i + j] += Ef[0][i] * RS[0][j] + Ef[1][i] * RS[1][j] + Ef[2][i] * RS[2][j];
+        K3[3 * i + j] += Ef[0][i] * RK[0][j] + Ef[1][i] * RK[1][j] + Ef[2][i] * RK[2][j];
+      }
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < i; ++j) {
+      J2s[3 * i + j] = J2s[3 * j + i];
+      K3[3 * i + j] = K3[3 * j + i];
+    }
+  const double a = kFourPi - (area_U + (in_U ? kFourPi : 0.0));
+  out.a = a;
+  for (int x = 0; x < 3; ++x) out.m1[x] = 0.5 * J1[x];
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) out.m2[3 * x + y] = (x == y ? a / 3.0 : 0.0) + J2s[3 * x + y] / 6.0;
+  // m3 c = [sym(J3) + T(J1)] c / 12, T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
+  const double J1c = dot3(J1, centre);
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y)
+      out.m3c[3 * x + y] = (K3[3 * x + y] + (x == y ? J1c : 0.0) + centre[x] * J1[y] + centre[y] * J1[x]) / 12.0;
+}
+
+// ------------------------------------------------------------------ the exact method
+struct ExactWorkspace {
+  PairSearch search;
+  std::vector<Pair> pairs;
+  std::vector<signed char> buried;
+  std::vector<Cap> caps, sorted;
+  std::vector<int> start, count;
+  std::vector<signed char> drop, copy, coinc;
+  std::vector<double> alpha;
+  Arrangement arr;
+};
+
+// Caps of every sphere (sorted by owner, then other) and the buried spheres.
+inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
+  w.search.overlapping(c, r, n, w.pairs);
+  w.buried.assign(n, 0);
+  // containment, scale-aware: a is inside b when its protrusion (r_a - r_b) + D is at most
+  // tau min(r_a, r_b).  Of two spheres inside each other (near-identical), exactly one goes: the
+  // later in the order (larger radius first, then lower index), so one of each group stays.
+  for (const Pair& p : w.pairs) {
+    const double ra = r[p.a], rb = r[p.b];
+    const double tol = kTauNested * std::min(ra, rb);
+    const bool a_in_b = (ra - rb) + p.D <= tol;
+    const bool b_in_a = (rb - ra) + p.D <= tol;
+    const bool a_first = ra >= rb;
+    if (a_in_b && !(b_in_a && a_first)) w.buried[p.a] = 1;
+    if (b_in_a && !(a_in_b && !a_first)) w.buried[p.b] = 1;
+  }
+  w.caps.clear();
+  for (const Pair& p : w.pairs) {
+    const double ra = r[p.a], rb = r[p.b], D = p.D;
+    if (w.buried[p.a] || w.buried[p.b]) continue;  // (every containment pair buried one of its spheres)
+    const double delta = ra + rb - D;
+    const double omh_a = delta * ((rb - ra) + D) / (2.0 * ra * D);
+    const double oph_a = ((ra - rb) + D) * (ra + D + rb) / (2.0 * ra * D);
+    const double omh_b = delta * ((ra - rb) + D) / (2.0 * rb * D);
+    const double oph_b = ((rb - ra) + D) * (rb + D + ra) / (2.0 * rb * D);
+    const double dr = (ra - rb) * (ra + rb);
+    const double h_a = (D * D + dr) / (2.0 * ra * D), h_b = (D * D - dr) / (2.0 * rb * D);
+    const double rho_a = std::sqrt(std::max(omh_a * oph_a, 0.0)), rho_b = std::sqrt(std::max(omh_b * oph_b, 0.0));
+    if (std::max(rho_a, rho_b) < kRhoTangent) {
+      // near-tangent pair: tangent.  Externally: no caps; internally: the inner sphere is buried
+      if (h_a < 0.0) w.buried[p.a] = 1;
+      if (h_b < 0.0) w.buried[p.b] = 1;
+      continue;
+    }
+    Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a, 0.0};
+    Cap cb{p.b, p.a, {-p.e[0], -p.e[1], -p.e[2]}, h_b, rho_b, 0.0};
+    w.caps.push_back(ca);
+    w.caps.push_back(cb);
+  }
+  // drop caps of or by buried spheres; group by owner, sort by other
+  w.count.assign(n, 0);
+  std::size_t kept = 0;
+  for (const Cap& cp : w.caps)
+    if (!w.buried[cp.owner] && !w.buried[cp.other]) {
+      w.caps[kept++] = cp;
+      ++w.count[cp.owner];
+    }
+  w.caps.resize(kept);
+  w.start.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) w.start[i + 1] = w.start[i] + w.count[i];
+  w.sorted.resize(kept);
+  std::vector<int>& fill = w.count;  // reuse as fill pointer
+  for (int i = 0; i < n; ++i) fill[i] = w.start[i];
+  for (const Cap& cp : w.caps) w.sorted[fill[cp.owner]++] = cp;
+  for (int i = 0; i < n; ++i) {
+    Cap* b = w.sorted.data() + w.start[i];
+    Cap* e = w.sorted.data() + w.start[i + 1];
+    if (e - b > 1) std::sort(b, e, [](const Cap& x, const Cap& y) { return x.other < y.other; });
+  }
+}
+
+// The caps of one sphere that matter (docs/exact_method.md, section 2a), compacted in place:
+// 1. coincident circles (|h_k g - h_j| + rho_k |n_k x n_j| <= tol seen from both circles, g = n_k.n_j)
+//    are one circle, decided once here: of equally oriented caps the lowest-ranked is kept; two
+//    oppositely oriented ones (complementary caps) cover the whole sphere: returns -1 (the sphere
+//    contributes nothing);
+// 2. of the rest, cap j lying in cap k (angle(n_j, n_k) + alpha_j <= alpha_k) is dropped.
+// Returns the new K (or -1).  Sets alpha of the kept caps.
+inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
+  if (K < 2) return K;  // one cap: closed form (single_cap), no angular radius needed
+  w.alpha.resize(K);
+  w.drop.assign(K, 0);
+  std::vector<signed char>& coinc = w.coinc;
+  coinc.assign(static_cast<std::size_t>(K) * K, 0);
+  for (int k = 0; k < K; ++k) {
+    w.alpha[k] = caps[k].alpha = std::atan2(caps[k].rho, caps[k].h);
+  }
+  for (int k = 0; k < K; ++k)
+    for (int j = k + 1; j < K; ++j) {
+      const double* a = caps[k].n;
+      const double* b = caps[j].n;
+      const double g = dot3(a, b);
+      // cheap exclusion: coincident circles have nearly equal h and nearly parallel axes
+      if (std::fabs(g) < 0.5) continue;
+      const double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
+      const double sn = std::sqrt(cx * cx + cy * cy + cz * cz);
+      const double dkj = std::fabs(caps[k].h * g - caps[j].h) + caps[k].rho * sn;
+      const double djk = std::fabs(caps[j].h * g - caps[k].h) + caps[j].rho * sn;
+      if (dkj <= kCoincidentCaps && djk <= kCoincidentCaps) {
+        if (g < 0.0) return -1;  // complementary caps: the sphere is covered entirely
+        coinc[static_cast<std::size_t>(k) * K + j] = coinc[static_cast<std::size_t>(j) * K + k] = 1;
+        // the same cap twice: keep the lower-ranked
+        if (caps[k].other < caps[j].other)
+          w.drop[j] = 1;
+        else
+          w.drop[k] = 1;
+      }
+    }
+  auto inside = [&](int j, int k) {  // cap j within cap k
+    const double room = w.alpha[k] - w.alpha[j];
+    if (room < 0.0) return false;
+    const double d = dot3(caps[j].n, caps[k].n);
+    // theta <= room needs cos(theta) >= cos(alpha_k - alpha_j) = h_k h_j + rho_k rho_j: clearly apart, skip the atan2
+    if (d < caps[k].h * caps[j].h + caps[k].rho * caps[j].rho - 1e-9) return false;
+    const double* a = caps[j].n;
+    const double* b = caps[k].n;
+    const double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
+    const double theta = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), d);
+    return theta + w.alpha[j] <= w.alpha[k];
+  };
+  // a cap dropped as a coincident copy is no container (its kept twin is): remember those flags
+  w.copy.assign(w.drop.begin(), w.drop.end());
+  for (int j = 0; j < K; ++j)
+    for (int k = 0; k < K && !w.drop[j]; ++k) {
+      if (k == j || w.copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
+      if (inside(j, k)) w.drop[j] = 1;
+    }
+  int m = 0;
+  for (int k = 0; k < K; ++k)
+    if (!w.drop[k]) caps[m++] = caps[k];
+  return m;
+}
+
+inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
+  out.clear();
+  exact_caps(c, r, n, w);
+  SurfaceMoments s;
+  for (int i = 0; i < n; ++i) {
+    if (w.buried[i]) continue;
+    Cap* caps = w.sorted.data() + w.start[i];
+    int K = w.start[i + 1] - w.start[i];
+    if (K == 0) {
+      add_ball(c + 3 * i, r[i], out);
+      continue;
+    }
+    K = prune_caps(caps, K, w);
+    if (K < 0) continue;  // covered entirely by complementary caps
+    if (K == 1)
+      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, s);
+    else
+      w.arr.compute(caps, K, c + 3 * i, s);
+    add_from_surface(c + 3 * i, r[i], s, out);
+  }
+}
+
+// ------------------------------------------------------------------ the pairwise method (paper eqs. 1-7)
+// cap of height l on a sphere of radius R: volume, centroid distance b from the base plane,
+// axial variance sa, transverse second moment st (per unit density)
+inline void cap_moments(double R, double l, double& V, double& b, double& sa, double& st) {
+  V = kPi * l * l * (3.0 * R - l) / 3.0;
+  b = l * (4.0 * R - l) / (4.0 * (3.0 * R - l));
+  const double l2 = l * l, l3 = l2 * l;
+  const double M1 = kPi * l3 * (2.0 * R / 3.0 - l / 4.0);
+  const double M2 = kPi * l3 * l * (R / 2.0 - l / 5.0);
+  sa = V > 0.0 ? M2 - M1 * M1 / V : 0.0;
+  st = 0.25 * kPi * l3 * (4.0 * R * R / 3.0 - R * l + l2 / 5.0);
+}
+
+// overlap region of one pair: volume, centroid, central second moment sig_t 1 + sig_ax e e^T
+inline void lens_moments(double ra, double rb, const double* ca, const double* cb, double D, const double* e, double& Vl,
+                         double* pos, double& sig_t, double& sig_ax) {
+  const bool big_a = ra >= rb;
+  const double r_small = big_a ? rb : ra, r_big = big_a ? ra : rb;
+  if (D + r_small <= r_big) {
+    const double* sc = big_a ? cb : ca;
+    Vl = (4.0 / 3.0) * kPi * r_small * r_small * r_small;
+    for (int x = 0; x < 3; ++x) pos[x] = sc[x];
+    sig_t = Vl * r_small * r_small / 5.0;
+    sig_ax = 0.0;
+    return;
+  }
+  const double delta = ra + rb - D;
+  const double l1 = delta * (rb - ra + D) / (2.0 * D), l2 = delta * (ra - rb + D) / (2.0 * D);
+  double V1, b1, sa1, st1, V2, b2, sa2, st2;
+  cap_moments(ra, l1, V1, b1, sa1, st1);
+  cap_moments(rb, l2, V2, b2, sa2, st2);
+  Vl = V1 + V2;
+  const double zL = Vl > 0.0 ? (V1 * b1 - V2 * b2) / Vl : (V1 * b1 - V2 * b2);
+  const double sa = sa1 + V1 * (b1 - zL) * (b1 - zL) + sa2 + V2 * (b2 + zL) * (b2 + zL);
+  sig_t = st1 + st2;
+  for (int x = 0; x < 3; ++x) pos[x] = ca[x] + (ra - l1) * e[x] + zL * e[x];
+  sig_ax = sa - sig_t;
+}
+
+// distance from point p to the overlap region of balls j, k (lens or the smaller ball)
+inline double distance_to_overlap(const double* p, const double* cj, double rj, const double* ck, double rk, double D,
+                                  const double* e) {
+  auto proj_in_other = [&](const double* cx, double rx, const double* cy, double ry) {
+    double v[3] = {p[0] - cx[0], p[1] - cx[1], p[2] - cx[2]};
+    const double nv = std::sqrt(dot3(v, v));
+    const bool outside = nv > rx;
+    double q[3];
+    for (int x = 0; x < 3; ++x) q[x] = outside ? cx[x] + v[x] * (rx / (nv > 0.0 ? nv : 1.0)) : p[x];
+    double w[3] = {q[0] - cy[0], q[1] - cy[1], q[2] - cy[2]};
+    const bool ok = dot3(w, w) <= ry * ry;
+    const double dist = outside ? nv - rx : 0.0;
+    return ok ? dist : HUGE_VAL;
+  };
+  double d = std::min(proj_in_other(cj, rj, ck, rk), proj_in_other(ck, rk, cj, rj));
+  const double big = std::max(rj, rk), small = std::min(rj, rk);
+  if (D + small > big) {
+    const double delta = rj + rk - D;
+    const double l1 = delta * (rk - rj + D) / (2.0 * D);
+    const double rho = std::sqrt(std::max(l1 * (2.0 * rj - l1), 0.0));
+    double v[3];
+    for (int x = 0; x < 3; ++x) v[x] = p[x] - (cj[x] + (rj - l1) * e[x]);
+    const double vpar = dot3(v, e);
+    double vp[3] = {v[0] - vpar * e[0], v[1] - vpar * e[1], v[2] - vpar * e[2]};
+    const double npp = std::sqrt(dot3(vp, vp));
+    d = std::min(d, std::sqrt(vpar * vpar + (npp - rho) * (npp - rho)));
+  }
+  return d;
+}
+
+struct PairwiseWorkspace {
+  PairSearch search;
+  std::vector<Pair> pairs;
+  std::vector<int> adj_start, adj;  // CSR adjacency: neighbours of each sphere
+  std::vector<int> pair_of;         // pair index of each adjacency entry
+  std::vector<int> mark;            // mark[k] = pair index (j,k) + 1 while scanning j
+};
+
+// Returns false (and fills t) if three spheres share a region.
+inline bool check_no_triple_overlap(const double* c, const double* r, int n, PairwiseWorkspace& w, TripleOverlap& t) {
+  t = TripleOverlap();
+  const auto& P = w.pairs;
+  if (n < 3 || P.size() < 3) return true;
+  w.adj_start.assign(n + 1, 0);
+  for (const Pair& p : P) {
+    ++w.adj_start[p.a + 1];
+    ++w.adj_start[p.b + 1];
+  }
+  for (int i = 0; i < n; ++i) w.adj_start[i + 1] += w.adj_start[i];
+  w.adj.resize(2 * P.size());
+  w.pair_of.resize(2 * P.size());
+  std::vector<int> fill(w.adj_start.begin(), w.adj_start.end() - 1);
+  for (int q = 0; q < static_cast<int>(P.size()); ++q) {
+    const Pair& p = P[q];
+    w.adj[fill[p.a]] = p.b;
+    w.pair_of[fill[p.a]++] = q;
+    w.adj[fill[p.b]] = p.a;
+    w.pair_of[fill[p.b]++] = q;
+  }
+  w.mark.assign(n, -1);
+  // triangles i < j < k: for each edge (j, k) with j < k, common neighbours i < j
+  for (int j = 0; j < n; ++j) {
+    for (int s = w.adj_start[j]; s < w.adj_start[j + 1]; ++s) w.mark[w.adj[s]] = w.pair_of[s];
+    for (int s = w.adj_start[j]; s < w.adj_start[j + 1]; ++s) {
+      const int k = w.adj[s];
+      if (k <= j) continue;
+      const Pair& jk = P[w.pair_of[s]];
+      for (int u = w.adj_start[k]; u < w.adj_start[k + 1]; ++u) {
+        const int i = w.adj[u];
+        if (i >= j || w.mark[i] < 0) continue;
+        const double dist = distance_to_overlap(c + 3 * i, c + 3 * j, r[j], c + 3 * k, r[k], jk.D, jk.e);
+        if (dist < r[i]) {
+          if (t.count == 0 || std::make_pair(i, std::make_pair(j, k)) < std::make_pair(t.i, std::make_pair(t.j, t.k))) {
+            t.i = i;
+            t.j = j;
+            t.k = k;
+          }
+          ++t.count;
+        }
+      }
+    }
+    for (int s = w.adj_start[j]; s < w.adj_start[j + 1]; ++s) w.mark[w.adj[s]] = -1;
+  }
+  return t.count == 0;
+}
+
+// Returns false if the check finds a triple overlap (t says where); out is then incomplete.
+inline bool pairwise_moments(const double* c, const double* r, int n, bool check, Moments& out, PairwiseWorkspace& w,
+                             TripleOverlap& t) {
+  sum_moments(c, r, n, out);
+  w.search.overlapping(c, r, n, w.pairs);
+  if (check && !check_no_triple_overlap(c, r, n, w, t)) return false;
+  for (const Pair& p : w.pairs) {
+    double Vl, pos[3], st, sax;
+    lens_moments(r[p.a], r[p.b], c + 3 * p.a, c + 3 * p.b, p.D, p.e, Vl, pos, st, sax);
+    out.V -= Vl;
+    for (int x = 0; x < 3; ++x) out.S[x] -= Vl * pos[x];
+    for (int x = 0; x < 3; ++x)
+      for (int y = 0; y < 3; ++y) out.Q[3 * x + y] -= Vl * pos[x] * pos[y] + sax * p.e[x] * p.e[y] + (x == y ? st : 0.0);
+  }
+  return true;
+}
+
+// ------------------------------------------------------------------ finishing: mass, COM, inertia, principal axes
+// Jacobi rotations on a symmetric 3x3 matrix: ascending eigenvalues w, right-handed eigenvector
+// columns V (A = V diag(w) V^T).  Accurate to round-off also for (near-)equal eigenvalues.
+inline void eigh3(const double* Ain, double* w, double* V) {
+  double a[3][3];
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) a[x][y] = 0.5 * (Ain[3 * x + y] + Ain[3 * y + x]);
+  double v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    const double off = std::fabs(a[0][1]) + std::fabs(a[0][2]) + std::fabs(a[1][2]);
+    if (off == 0.0) break;
+    for (int p = 0; p < 2; ++p)
+      for (int q = p + 1; q < 3; ++q) {
+        const double apq = a[p][q];
+        const double g = 100.0 * std::fabs(apq);
+        // an element below round-off of both diagonal entries is zero (its rotation would not change them)
+        if (std::fabs(a[p][p]) + g == std::fabs(a[p][p]) && std::fabs(a[q][q]) + g == std::fabs(a[q][q])) {
+          a[p][q] = a[q][p] = 0.0;
+          continue;
+        }
+        if (apq == 0.0) continue;
+        const double theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+        const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
+        const double cs = 1.0 / std::sqrt(t * t + 1.0), sn = t * cs;
+        const double tau = sn / (1.0 + cs);
+        a[p][p] -= t * apq;
+        a[q][q] += t * apq;
+        a[p][q] = a[q][p] = 0.0;
+        for (int r = 0; r < 3; ++r) {
+          if (r == p || r == q) continue;
+          const double arp = a[r][p], arq = a[r][q];
+          a[r][p] = a[p][r] = arp - sn * (arq + tau * arp);
+          a[r][q] = a[q][r] = arq + sn * (arp - tau * arq);
+        }
+        for (int r = 0; r < 3; ++r) {
+          const double vrp = v[r][p], vrq = v[r][q];
+          v[r][p] = vrp - sn * (vrq + tau * vrp);
+          v[r][q] = vrq + sn * (vrp - tau * vrq);
+        }
+      }
+  }
+  int idx[3] = {0, 1, 2};
+  double d[3] = {a[0][0], a[1][1], a[2][2]};
+  if (d[idx[0]] > d[idx[1]]) std::swap(idx[0], idx[1]);
+  if (d[idx[1]] > d[idx[2]]) std::swap(idx[1], idx[2]);
+  if (d[idx[0]] > d[idx[1]]) std::swap(idx[0], idx[1]);
+  for (int k = 0; k < 3; ++k) {
+    w[k] = d[idx[k]];
+    for (int r = 0; r < 3; ++r) V[3 * r + k] = v[r][idx[k]];
+  }
+  const double det = V[0] * (V[4] * V[8] - V[5] * V[7]) - V[1] * (V[3] * V[8] - V[5] * V[6]) +
+                     V[2] * (V[3] * V[7] - V[4] * V[6]);
+  if (det < 0.0)
+    for (int r = 0; r < 3; ++r) V[3 * r + 2] = -V[3 * r + 2];
+}
+
+// Principal moments and axes of a body symmetric about the unit axis e (one sphere, two spheres):
+// its inertia is A 1 + B e e^T, so e is an axis with moment e.I.e and every perpendicular direction
+// has (tr I - e.I.e)/2.  Closed form, to round-off of I; ascending and right-handed like eigh3.
+inline void eigh3_axisymmetric(const double* I, const double* e, double* w, double* V) {
+  double Ie[3];
+  for (int x = 0; x < 3; ++x) Ie[x] = I[3 * x] * e[0] + I[3 * x + 1] * e[1] + I[3 * x + 2] * e[2];
+  const double ax = dot3(e, Ie);
+  const double perp = 0.5 * ((I[0] + I[4] + I[8]) - ax);
+  double e1[3], e2[3];
+  // basis perpendicular to e (as Arrangement::basis)
+  double t[3] = {1.0, 0.0, 0.0};
+  if (!(std::fabs(e[0]) < 0.9)) {
+    t[0] = 0.0;
+    t[1] = 1.0;
+  }
+  const double d = dot3(t, e);
+  for (int x = 0; x < 3; ++x) e1[x] = t[x] - d * e[x];
+  const double l = std::sqrt(dot3(e1, e1));
+  for (int x = 0; x < 3; ++x) e1[x] /= l;
+  e2[0] = e[1] * e1[2] - e[2] * e1[1];
+  e2[1] = e[2] * e1[0] - e[0] * e1[2];
+  e2[2] = e[0] * e1[1] - e[1] * e1[0];
+  // columns: (e1, e2, e) is right-handed; ascending order
+  const double* cols[3];
+  if (ax <= perp) {
+    w[0] = ax;
+    w[1] = w[2] = perp;
+    cols[0] = e;
+    cols[1] = e1;
+    cols[2] = e2;  // (e, e1, e2) is right-handed too
+  } else {
+    w[0] = w[1] = perp;
+    w[2] = ax;
+    cols[0] = e1;
+    cols[1] = e2;
+    cols[2] = e;
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) V[3 * r + k] = cols[k][r];
+}
+
+enum Status : int { kOk = 0, kOverflow = 1, kNonPositiveVolume = 2, kTriple = 3, kBadInput = 4 };
+
+struct Result {
+  double mass, volume, com[3], inertia[9], moments[3], axes[9];
+};
+
+// moments about the clump origin -> mass properties (docs: _properties.finish)
+// axis: if not null, the body is symmetric about this unit axis (principal axes in closed form)
+inline Status finish(const Moments& m, const double* origin, double density, bool principal, Result& res,
+                     const double* axis = nullptr) {
+  bool finite = std::isfinite(m.V);
+  for (int x = 0; x < 3; ++x) finite = finite && std::isfinite(m.S[x]);
+  for (int x = 0; x < 9; ++x) finite = finite && std::isfinite(m.Q[x]) && std::isfinite(m.Q[x] * density);
+  if (!finite) return kOverflow;
+  if (!(m.V > 0.0)) return kNonPositiveVolume;
+  double d[3], Qc[9];
+  for (int x = 0; x < 3; ++x) d[x] = m.S[x] / m.V;
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) Qc[3 * x + y] = m.Q[3 * x + y] - m.S[x] * d[y];
+  const double tr = (Qc[0] + Qc[4] + Qc[8]) * density;
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) {
+      double I = 0.5 * (Qc[3 * x + y] + Qc[3 * y + x]);
+      I *= -density;
+      if (x == y) I += tr;
+      res.inertia[3 * x + y] = I;
+    }
+  for (int x = 0; x < 9; ++x)
+    if (!std::isfinite(res.inertia[x])) return kOverflow;
+  for (int x = 0; x < 3; ++x) res.com[x] = origin[x] + d[x];
+  res.mass = density * m.V;
+  res.volume = m.V;
+  if (principal) {
+    if (axis)
+      eigh3_axisymmetric(res.inertia, axis, res.moments, res.axes);
+    else
+      eigh3(res.inertia, res.moments, res.axes);
+  }
+  return kOk;
+}
+
+// Clump origin: volume-weighted mean of the sphere centres, accumulated relative to the first
+// sphere; rel receives the centres relative to it.
+inline bool clump_origin(const double* c, const double* r, int n, double* origin, double* rel) {
+  double s = 0.0, acc[3] = {0.0, 0.0, 0.0};
+  for (int i = 0; i < n; ++i) {
+    if (!(r[i] > 0.0) || !std::isfinite(r[i])) return false;
+    for (int x = 0; x < 3; ++x)
+      if (!std::isfinite(c[3 * i + x])) return false;
+    s += r[i] * r[i] * r[i];
+  }
+  for (int i = 0; i < n; ++i) {
+    const double wgt = r[i] * r[i] * r[i] / s;
+    for (int x = 0; x < 3; ++x) acc[x] += wgt * (c[3 * i + x] - c[x]);
+  }
+  for (int x = 0; x < 3; ++x) origin[x] = c[x] + acc[x];
+  for (int i = 0; i < n; ++i)
+    for (int x = 0; x < 3; ++x) rel[3 * i + x] = c[3 * i + x] - origin[x];
+  return true;
+}
+
+enum Method : int { kExact = 0, kPairwise = 1, kSum = 2 };
+
+// One clump from world coordinates to mass properties.
+struct Engine {
+  ExactWorkspace ex;
+  PairwiseWorkspace pw;
+  std::vector<double> rel;
+  Moments mom;
+  double origin[3];
+  TripleOverlap triple;
+
+  Status clump(Method method, const double* c, const double* r, int n, double density, bool principal, Result& res,
+               bool check = true) {
+    rel.resize(3 * static_cast<std::size_t>(n));
+    if (n <= 0 || !clump_origin(c, r, n, origin, rel.data())) return kBadInput;
+    switch (method) {
+      case kExact:
+        exact_moments(rel.data(), r, n, mom, ex);
+        break;
+      case kPairwise:
+        if (!pairwise_moments(rel.data(), r, n, check, mom, pw, triple)) return kTriple;
+        break;
+      default:
+        sum_moments(rel.data(), r, n, mom);
+    }
+    // one sphere or two: symmetric about the line of centres
+    const double* axis = nullptr;
+    double e[3] = {0.0, 0.0, 1.0};
+    if (n <= 2) {
+      if (n == 2) {
+        const double dx = c[3] - c[0], dy = c[4] - c[1], dz = c[5] - c[2];
+        const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+        if (D > 0.0) {
+          e[0] = dx / D;
+          e[1] = dy / D;
+          e[2] = dz / D;
+        }
+      }
+      axis = e;
+    }
+    return finish(mom, origin, density, principal, res, axis);
+  }
+};
+
+}  // namespace clumpprops
