@@ -18,8 +18,10 @@ paper: setup
 	OMP_NUM_THREADS=1 $(PY) -m studies run paper
 # the test suite on both YADE versions: natively (Debian 12, YADE 2023.02a), then inside the
 # Debian 13 root (YADE 2025.2; built on first use, ~8 min, reused afterwards); both run even
-# if the first fails, and the target fails if either does
-test:
+# if the first fails, and the target fails if either does.  Both set-ups come first: native
+# tests run YADE 2025.2 in the root too (the study engine), which needs the root's own build
+# of the compiled core (Python 3.13)
+test: setup setup-debian13
 	@status=0; \
 	$(MAKE) --no-print-directory test-native || status=1; \
 	$(MAKE) --no-print-directory test-debian13 || status=1; \

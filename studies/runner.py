@@ -162,6 +162,10 @@ def execute(run, settings):
         env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{table}:2", CLUMPPROPS_ROOT=ROOT)
         script = SCRIPT
         if chroot:      # the repository is /repo inside the root; /tmp is shared
+            import glob
+            if not glob.glob(os.path.join(ROOT, "clumpprops", "core", "_core.cpython-313*.so")):
+                raise RunError("the Debian 13 root has no build of clumpprops' compiled core (Python 3.13): "
+                               "run `make setup-debian13` once")
             script = "/repo/yade_scripts/granular_gas.py"
             cmd = cmd[:2] + ["env", f"YADE_BATCH={table}:2"] + cmd[2:]
         log_path = os.path.join(work, "yade.log")

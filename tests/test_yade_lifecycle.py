@@ -475,7 +475,8 @@ def test_vtk_export_sees_spheres_only(scene, tmp_path):
     for k in range(3):
         cy.append_clump(make_spheres(*trimer(k * 1.0)))
     O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]), NewtonIntegrator(damping=0),
-                 VTKRecorder(fileName=str(tmp_path / "r-"), recorders=["all"], iterPeriod=1)]
+                 VTKRecorder(fileName=str(tmp_path / "r-"), recorders=["spheres", "velocity", "mass", "clumpId", "ids", "mask"],
+                             iterPeriod=1)]
     O.dt = 1e-5
     O.run(2, True)
     vtu = sorted(tmp_path.glob("r-spheres*.vtu"))
