@@ -153,6 +153,13 @@ def make_pairs(shape, n_pairs, seed, energy=ENERGY, gap=1e-3):
             "g": g.tolist(), "b": b.tolist(), "seed": seed, "rot_algorithm": "delValle2023"}
 
 
+def native_yade_version():
+    """Version of the YADE this Python imports (2023.02a on Debian 12, 2025.2 on Debian 13)."""
+    out = subprocess.run([sys.executable, "-c", "import yade.config; print(yade.config.version)"],
+                         capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    return (out.stdout.strip().splitlines() or [""])[-1]
+
+
 def run_map(inp, factor, yade, tmp, name):
     dt = factor * p_wave_dt_of_body(inp)
     d = dict(inp, dt=dt)
@@ -172,11 +179,13 @@ def run_map(inp, factor, yade, tmp, name):
     with open(fin, "w") as f:
         f.write(text)
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    if yade == "2023.02a":
+    if native_yade_version().startswith(yade):        # Debian 12 for 2023.02a, Debian 13 for 2025.2
         cmd = ["nice", "-n", "5", sys.executable, SCRIPT, fin, fout]
-    else:
+    elif yade.startswith("2025") and not os.environ.get("CLUMPPROPS_IN_DEBIAN13"):
         cmd = ["nice", "-n", "5", DEBIAN13, "run", "python3", "/repo/benchmarks/timestep_collisions_yade.py",
                fin, fout]
+    else:
+        raise RuntimeError(f"no YADE {yade} here (the native one is {native_yade_version()})")
     t0 = time.time()
     c0 = cpu_children()
     p = subprocess.run(cmd, env=env, capture_output=True, text=True)

@@ -138,7 +138,8 @@ def test_repeated_yade_ids_get_distinct_names(tmp_path):
 
 
 def test_csv_with_and_without_header_and_scale(tmp_path):
-    body = "\n".join(f"{x!r},{y!r},{z!r},{r!r}" for (x, y, z), r in zip(TEN.centers * 1000, TEN.radii * 1000))
+    body = "\n".join(f"{float(x)!r},{float(y)!r},{float(z)!r},{float(r)!r}"
+                     for (x, y, z), r in zip(TEN.centers * 1000, TEN.radii * 1000))
     (tmp_path / "a.csv").write_text("x,y,z,r\n" + body + "\n")
     (tmp_path / "b.csv").write_text("# in mm\n" + body + "\n")
     a, = read(tmp_path / "a.csv", scale=0.001)

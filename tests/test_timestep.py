@@ -61,6 +61,8 @@ def _head_on(g=2.0):
     return inp
 
 
+@pytest.mark.skipif(not bt.native_yade_version().startswith("2023.02a"),
+                    reason="the dimer map runs on YADE 2023.02a (Debian 12); the Debian 13 root has 2025.2 only")
 def test_head_on_dimers_exchange_velocities_with_second_order_energy_error(tmp_path):
     inp = _head_on()
     res = {}
