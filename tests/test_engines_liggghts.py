@@ -16,9 +16,9 @@ and its inertia tensor from ``compute erotate/multisphere`` with six known angul
 * a free spin: member positions after 1 s follow the exact inertia (scipy solve_ivp) and
   are far from the summed-sphere prediction.
 """
-from __future__ import os
-import annotations
+from __future__ import annotations
 
+import os
 import re
 
 import numpy as np
