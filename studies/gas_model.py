@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .shapes import rotations_z_to
+
 # ---- the paper's numbers (defaults of the specs and the tests) -------------------------------
 D_SPHERE = 0.1333            # m, diameter of a clump member
 R_SPHERE = D_SPHERE / 2      # m
@@ -128,22 +130,6 @@ def effective_protocol(case_res, exact_mass, protocol):
         case_res["mass_source"] == "exact" else protocol
 
 
-def _rotation_z_to(u):
-    """Rotation matrices (n, 3, 3) taking e_z to the unit vectors u (n, 3) (Rodrigues' formula
-    from +z for u_z >= 0, from -z composed with a half turn about x otherwise: no cancellation)."""
-    u = np.asarray(u, float)
-    flip = u[:, 2] < 0
-    w = np.where(flip[:, None], -u, u)              # w_z >= 0
-    v = np.stack([-w[:, 1], w[:, 0], np.zeros(len(w))], axis=1)     # e_z x w
-    vx = np.zeros((len(w), 3, 3))
-    vx[:, 0, 1], vx[:, 0, 2] = -v[:, 2], v[:, 1]
-    vx[:, 1, 0], vx[:, 1, 2] = v[:, 2], -v[:, 0]
-    vx[:, 2, 0], vx[:, 2, 1] = -v[:, 1], v[:, 0]
-    R = np.eye(3) + vx + vx @ vx / (1.0 + w[:, 2])[:, None, None]
-    R[flip] = -R[flip] @ np.diag([-1.0, 1.0, 1.0])     # takes e_z to -w = u, det +1
-    return R
-
-
 def _rot_z(phi):
     c, s = np.cos(phi), np.sin(phi)
     R = np.zeros((len(phi), 3, 3))
@@ -200,7 +186,7 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
     vel -= vel.mean(axis=0)
     twist = rng.uniform(0.0, 2 * np.pi, n_particles)
     z = rng.normal(size=(n_particles, 3))
-    ori = _rotation_z_to(axes) @ _rot_z(twist)
+    ori = rotations_z_to(axes) @ _rot_z(twist)
     own = effective_protocol(case_res, exact_mass, protocol) == "equal_energy"
     m_scale = case_res["mass"] if own else exact_mass
     rot_dof = 2 if linear else 3

@@ -94,10 +94,7 @@ def body_frame(centers, radii, density):
         if len(c) == 1:
             return np.eye(3)
         d = c - c.mean(axis=0)
-        u = np.linalg.svd(d)[2][0]
-        if abs(u[2]) > 1 - 1e-15:
-            return np.eye(3) if u[2] > 0 else np.diag([1.0, -1.0, -1.0])
-        return _rotation_z_to(u)
+        return rotations_z_to(np.linalg.svd(d)[2][:1])[0]
     mp = clumpprops.mass_properties(c, radii, density=density, method="exact")
     m = np.asarray(mp.principal_moments)
     if np.ptp(m) <= 1e-12 * m.max():        # isotropic (e.g. the tetrahedron): keep the input axes
@@ -105,11 +102,20 @@ def body_frame(centers, radii, density):
     return np.asarray(mp.principal_axes)
 
 
-def _rotation_z_to(u):
-    v = np.cross([0.0, 0.0, 1.0], u)
-    c = float(u[2])
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+def rotations_z_to(u):
+    """Rotation matrices (n, 3, 3) taking e_z to the unit vectors u (n, 3) (Rodrigues' formula
+    from +z for u_z >= 0, from -z composed with a half turn about x otherwise: no cancellation)."""
+    u = np.asarray(u, float)
+    flip = u[:, 2] < 0
+    w = np.where(flip[:, None], -u, u)              # w_z >= 0
+    v = np.stack([-w[:, 1], w[:, 0], np.zeros(len(w))], axis=1)     # e_z x w
+    vx = np.zeros((len(w), 3, 3))
+    vx[:, 0, 1], vx[:, 0, 2] = -v[:, 2], v[:, 1]
+    vx[:, 1, 0], vx[:, 1, 2] = v[:, 2], -v[:, 0]
+    vx[:, 2, 0], vx[:, 2, 1] = -v[:, 1], v[:, 0]
+    R = np.eye(3) + vx + vx @ vx / (1.0 + w[:, 2])[:, None, None]
+    R[flip] = -R[flip] @ np.diag([-1.0, 1.0, 1.0])     # takes e_z to -w = u, det +1
+    return R
 
 
 @functools.lru_cache(maxsize=None)

@@ -11,24 +11,14 @@ exit status 1; bad options exit with status 2.  See docs/engines.md.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import Optional, Sequence
 
 from .. import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__
+from ..cli import _positive_float
 from . import ENGINES, FORMATS, ClumpFileError, compute, export, read
 
 PROG = "clumpprops export"
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text!r}")
-    return v
 
 
 def build_parser() -> argparse.ArgumentParser:
