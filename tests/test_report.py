@@ -1,0 +1,57 @@
+"""The generated report (studies/report.py) and the sphere-gas table (studies/sphere_gas.py) from
+the committed results: every number in the answers comes from the tables, and the committed
+sphere gas agrees with kinetic theory."""
+import math
+import shutil
+
+import pandas as pd
+import pytest
+
+from studies import report, sphere_gas
+from studies import spec as S
+
+
+@pytest.fixture()
+def results_copy(tmp_path, monkeypatch):
+    src = S.ROOT + "/results"
+    dst = tmp_path / "results"
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns("runs", "*.png"))
+    monkeypatch.setattr(report, "RESULTS", str(dst))
+    return dst
+
+
+def test_report_states_answers_from_the_tables(results_copy):
+    text = report.build()
+    assert "## The answers so far" in text
+    assert (results_copy / "README.md").read_text() == text
+    sph = pd.read_csv(results_copy / "sphere_gas.csv")
+    diff = pd.read_csv(results_copy / "granular_gas" / "diff_D.csv")
+    u = diff[(diff.case == "uncorrected") & (diff.protocol == "paired")].iloc[0]
+    assert f"uncorrected vs exact {100 * u.relative:+.2f} %" in text
+    for r in sph.itertuples():
+        assert f"measured D {100 * (r.ratio_hertz - 1):+.2f} %" in text
+        assert f"| {r.D:.3f} | [{r.ci_low:.3f}, {r.ci_high:.3f}] |" in text
+    # the dimer_paired answer names its half-width and projection
+    assert "uncorrected vs exact (paired protocol, `dimer_paired`)" in text
+
+
+def test_report_without_sphere_table_says_so(results_copy):
+    (results_copy / "sphere_gas.csv").unlink()
+    text = report.build()
+    assert "No sphere-gas runs yet." in text
+    assert "Sphere gas vs kinetic theory" not in text
+
+
+def test_committed_sphere_gas_agrees_with_kinetic_theory():
+    """The first version's sphere gas (E = 1e7 Pa, 8 seeds) against the Hertz-sphere Boltzmann D,
+    recomputed here from the committed tables with a smaller Monte Carlo (SE ~0.3 %)."""
+    g = sphere_gas.gas_from_first_version()
+    assert g is not None and g["n_runs"] >= 8
+    assert g["kT"] == pytest.approx(2.5, rel=1e-3)          # 3.24 kJ / 864 spheres, all translational
+    row = sphere_gas.rows([], n_chains=400, n_steps=800, log=lambda s: None)[0]
+    assert row["ci_low"] / row["d_hertz_boltzmann"] < 1.0 < row["ci_high"] / row["d_hertz_boltzmann"]
+    # and it is not the hard-sphere gas: softness is resolved at this stiffness
+    assert row["ci_low"] > row["d_hard_boltzmann"]
+    assert row["dlnD_dlnE"] < -0.01
+    committed = sphere_gas.read()
+    assert committed and math.isclose(committed[0]["d_hertz_boltzmann"], row["d_hertz_boltzmann"], rel_tol=0.015)
