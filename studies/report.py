@@ -18,7 +18,7 @@ import sys
 
 import pandas as pd
 
-from . import design, effects, engine, sphere_gas
+from . import design, effects, effects_plots, engine, sphere_gas
 from . import spec as S
 
 RESULTS = os.path.join(S.ROOT, "results")
@@ -221,11 +221,15 @@ def build():
              "paired by seed where it compares two cases.  D of a run: Green-Kubo on its velocity "
              "autocorrelation (docs/estimator.md) unless a table says otherwise.", ""]
     sph = sphere_gas.read(os.path.join(RESULTS, "sphere_gas.csv"))
+    figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
     answers_section(lines, specs, sph, rows)
     fig2_section(lines)
     programme_section(lines, specs)
     effects_section(lines, rows)
     sphere_gas_section(lines, sph)
+    if figs:
+        lines += ["## Figures (drawn from `effects.csv` and `sphere_gas.csv`)", ""]
+        lines += [f"![{f}]({f})" for f in figs] + [""]
     text = "\n".join(lines) + "\n"
     path = os.path.join(RESULTS, "README.md")
     tmp = path + ".tmp"

@@ -55,3 +55,23 @@ def test_committed_sphere_gas_agrees_with_kinetic_theory():
     assert row["dlnD_dlnE"] < -0.01
     committed = sphere_gas.read()
     assert committed and math.isclose(committed[0]["d_hertz_boltzmann"], row["d_hertz_boltzmann"], rel_tol=0.015)
+
+
+def test_effect_figures_from_tables_only(tmp_path):
+    """Every figure is drawn from the CSV tables alone, and only when they hold rows for it."""
+    from studies import effects_plots
+    cols = "shape,overlap,protocol,youngs_modulus,case,n_pairs,relative,relative_ci_low,relative_ci_high,mass_error,k2_error,yade_version,rot_algorithm\n"
+    rows = ["dimer,0.5,paired,1e7,uncorrected,4,-0.01,-0.03,0.01,0.185,-0.105,2023.02a,isotropic",
+            "dimer,0.5,paired,1e7,mass_only,4,0.004,-0.01,0.02,0.185,-0.105,2023.02a,isotropic",
+            "dimer,0.5,paired,1e8,mass_only,1,0.002,,,0.185,-0.105,2023.02a,isotropic",
+            "dimer,0.5,equal_energy,1e7,uncorrected,4,-0.08,-0.1,-0.06,0.185,-0.105,2023.02a,isotropic",
+            "tetrahedron,,equal_energy,1e7,uncorrected,2,-0.05,-0.09,-0.01,0.3,-0.2,2025.2,delValle2023"]
+    (tmp_path / "effects.csv").write_text(cols + "\n".join(rows) + "\n")
+    made = effects_plots.plot_all(str(tmp_path), log=lambda s: None)
+    assert made == ["effects.png", "decomposition.png", "protocol.png"]
+    for m in made:
+        assert (tmp_path / m).stat().st_size > 10_000
+    (tmp_path / "effects.csv").write_text(cols)
+    for m in made:
+        (tmp_path / m).unlink()
+    assert effects_plots.plot_all(str(tmp_path), log=lambda s: None) == []

@@ -1,0 +1,139 @@
+"""The programme's figures, drawn from ``results/effects.csv`` and ``results/sphere_gas.csv`` only.
+
+effects.png        D_case/D_exact - 1 (paired by seed, 95 % bars) against the summed clump's mass error
+                   and against its k^2 = I/m error: one point per shape x overlap x protocol x case
+decomposition.png  the paper's dimer, paired protocol: uncorrected, mass_only, inertia_only side by side
+                   at each Young's modulus (the mass/inertia decomposition and the stiffness series)
+protocol.png       uncorrected vs exact per shape: paired against equal-energy protocol, with the
+                   hard-particle mass-scaling prediction sqrt(m_exact/m_summed) - 1 for equal energy
+sphere_gas.png     the sphere gas's D over the Hertz-sphere and hard-sphere Boltzmann D against E
+
+Each figure is written only when its table has rows for it; ``plot_all`` returns the files made.
+``studies.report`` calls it and links what exists.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+CASE_COLORS = {"uncorrected": "tab:red", "mass_only": "tab:green", "inertia_only": "tab:orange"}
+SHAPE_MARKERS = {"dimer": "o", "trimer_linear": "s", "trimer_triangle": "^", "tetrahedron": "D"}
+
+
+def _read(path):
+    import pandas as pd
+
+    return pd.read_csv(path) if os.path.exists(path) else None
+
+
+def _bars(ax, x, r, **kw):
+    y = 100 * r["relative"].to_numpy()
+    lo = 100 * r["relative_ci_low"].to_numpy()
+    hi = 100 * r["relative_ci_high"].to_numpy()
+    ok = np.isfinite(lo) & np.isfinite(hi)
+    yerr = np.vstack([np.where(ok, y - lo, 0), np.where(ok, hi - y, 0)])
+    ax.errorbar(x, y, yerr=yerr, fmt=kw.pop("fmt", "o"), capsize=3, **kw)
+
+
+def plot_all(results, log=print):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    made = []
+    eff = _read(os.path.join(results, "effects.csv"))
+    if eff is not None and len(eff):
+        fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
+        for (shape, prot, case), g in eff.groupby(["shape", "protocol", "case"]):
+            kw = dict(color=CASE_COLORS.get(case, "gray"), fmt=SHAPE_MARKERS.get(shape, "o"),
+                      mfc="none" if prot != "paired" else None, label=f"{shape}, {case}, {prot}")
+            _bars(axes[0], 100 * g["mass_error"].to_numpy(), g, **kw)
+            _bars(axes[1], 100 * g["k2_error"].to_numpy(), g, **dict(kw, label=None))
+        for ax, what in zip(axes, ("mass error of the summed clump, m_sum/m_exact − 1 (%)",
+                                   "k² = I/m error of the summed clump (%)")):
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_xlabel(what)
+            ax.grid(alpha=0.3)
+        axes[0].set_ylabel("D_case / D_exact − 1 (%), 95 % CI over seed pairs")
+        axes[0].legend(fontsize=7, loc="best")
+        fig.suptitle("Effect of the clump's mass properties on D, one point per shape × overlap × protocol × case")
+        fig.tight_layout()
+        made.append(_save(fig, results, "effects.png"))
+
+        dim = eff[(eff["shape"] == "dimer") & (eff["protocol"] == "paired") & (eff["overlap"].astype(str) == "0.5")]
+        if len(dim):
+            fig, ax = plt.subplots(figsize=(7, 4.5))
+            moduli = sorted(dim["youngs_modulus"].unique())
+            cases = ["uncorrected", "mass_only", "inertia_only"]
+            for j, case in enumerate(cases):
+                g = dim[dim["case"] == case].set_index("youngs_modulus").reindex(moduli).reset_index()
+                x = np.arange(len(moduli)) + (j - 1) * 0.22
+                has = g["relative"].notna().to_numpy()
+                if has.any():
+                    _bars(ax, x[has], g[has], color=CASE_COLORS[case], label=case)
+            ax.set_xticks(np.arange(len(moduli)))
+            ax.set_xticklabels([f"E = {e:.0e} Pa" for e in moduli])
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_ylabel("D_case / D_exact − 1 (%), 95 % CI")
+            ax.set_title("Paper's dimer, paired protocol: mass vs inertia, by stiffness", fontsize=10)
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+            fig.tight_layout()
+            made.append(_save(fig, results, "decomposition.png"))
+
+        unc = eff[eff["case"] == "uncorrected"]
+        if len(unc) and unc["protocol"].nunique() > 1:
+            fig, ax = plt.subplots(figsize=(8, 4.5))
+            labels = sorted({(r.shape, str(r.overlap)) for r in unc.itertuples()})
+            for j, prot in enumerate(("paired", "equal_energy")):
+                g = unc[unc["protocol"] == prot]
+                xs = [labels.index((r.shape, str(r.overlap))) + (j - 0.5) * 0.25 for r in g.itertuples()]
+                if len(g):
+                    _bars(ax, xs, g, color="tab:red" if prot == "paired" else "tab:purple", label=prot)
+            pred = [np.sqrt(1.0 / (1.0 + unc[(unc["shape"] == s) & (unc["overlap"].astype(str) == o)]["mass_error"].iloc[0])) - 1
+                    for s, o in labels]
+            ax.plot(np.arange(len(labels)) + 0.125, 100 * np.array(pred), "k_", ms=18, mew=2,
+                    label="equal energy, hard particles: sqrt(m_exact/m_sum) − 1")
+            ax.set_xticks(np.arange(len(labels)))
+            ax.set_xticklabels([f"{s}\nD/d_s = {o}" if o not in ("", "nan") else s for s, o in labels], fontsize=8)
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_ylabel("D_uncorrected / D_exact − 1 (%), 95 % CI")
+            ax.set_title("The protocol effect: same velocities vs same energy", fontsize=10)
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+            fig.tight_layout()
+            made.append(_save(fig, results, "protocol.png"))
+
+    sph = _read(os.path.join(results, "sphere_gas.csv"))
+    if sph is not None and len(sph):
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        e = sph["youngs_modulus"].to_numpy()
+        for name, col, lab in (("hertz", "tab:blue", "measured / Hertz-sphere Boltzmann D"),
+                               ("hard", "tab:gray", "measured / hard-sphere Boltzmann D")):
+            y = sph[f"ratio_{name}"].to_numpy()
+            yerr = np.vstack([y - sph[f"ratio_{name}_ci_low"].to_numpy(), sph[f"ratio_{name}_ci_high"].to_numpy() - y])
+            ax.errorbar(e, y, yerr=yerr, fmt="o", capsize=3, color=col, label=lab)
+        ax.plot(e, sph["d_hertz_boltzmann"] / sph["d_hard_boltzmann"], "kx", label="theory: Hertz / hard spheres")
+        ax.axhline(1, color="k", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_xlabel("Young's modulus E (Pa)")
+        ax.set_ylabel("D ratio, 95 % CI over seeds")
+        ax.set_title("Sphere gas against kinetic theory", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        made.append(_save(fig, results, "sphere_gas.png"))
+    for m in made:
+        log(f"[plot] {m}")
+    return made
+
+
+def _save(fig, results, name):
+    import matplotlib.pyplot as plt
+
+    path = os.path.join(results, name)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return name
