@@ -7,6 +7,7 @@ call made unguarded (``cy.unguarded()``: YADE as if the adapter were not loaded)
 negative control, so each test can fail.
 """
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -469,22 +470,145 @@ def test_mask_selected_engines(scene):
     assert O.bodies[cy.correction_id(c2)].mask == 0b010
 
 
-def test_vtk_export_sees_spheres_only(scene, tmp_path):
+# VTKRecorder's recorders that write interactions (r-intrs.*.vtp): "intr" and the ones that turn it on.
+VTK_INTR_RECORDERS = ["all", "intr", "cpm", "jcfpm", "wpm", "liquidcontrol"]
+# Every other recorder of YADE 2023.02a and 2025.2.
+VTK_OTHER_RECORDERS = ["spheres", "velocity", "facets", "boxes", "colors", "mass", "ids", "mask", "clumpId", "materialId",
+                       "stress", "force", "coordNumber", "bstresses", "cracks", "moments", "lsBodies"]
+
+
+def touching_trimers(append):
+    """Three trimers 0.12 m apart: spheres of neighbouring clumps overlap, so there are contacts."""
+    return [append(make_spheres(*trimer(0.12 * k))) for k in range(3)]
+
+
+def contact_engines(*extra):
+    from yade.wrapper import (Ig2_Sphere_Sphere_ScGeom, InteractionLoop, Ip2_FrictMat_FrictMat_FrictPhys,
+                              Law2_ScGeom_FrictPhys_CundallStrack)
+
+    return [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
+            InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()], [Law2_ScGeom_FrictPhys_CundallStrack()]),
+            NewtonIntegrator(damping=0), *extra]
+
+
+def test_vtk_export_sees_spheres_only(scene, tmp_path, monkeypatch):
+    """VTKRecorder with every recorder that does not write interactions (those can crash in YADE
+    itself: test_vtk_recorder_interactions_*), and export.VTKExporter for spheres and contacts:
+    only the 9 spheres are exported, with their own mass; the correction never appears."""
     from yade import export
 
-    for k in range(3):
-        cy.append_clump(make_spheres(*trimer(k * 1.0)))
-    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]), NewtonIntegrator(damping=0),
-                 VTKRecorder(fileName=str(tmp_path / "r-"), recorders=["spheres", "velocity", "mass", "clumpId", "ids", "mask"],
-                             iterPeriod=1)]
+    monkeypatch.chdir(tmp_path)  # "cracks" looks for its input in the working directory
+    cids = touching_trimers(lambda s: cy.append_clump(s)[0])
+    O.engines = contact_engines(VTKRecorder(fileName=str(tmp_path / "r-"), recorders=VTK_OTHER_RECORDERS, iterPeriod=1))
     O.dt = 1e-5
     O.run(2, True)
     vtu = sorted(tmp_path.glob("r-spheres*.vtu"))
-    assert vtu and 'NumberOfPoints="9"' in vtu[-1].read_text()
-    export.VTKExporter(str(tmp_path / "e")).exportSpheres(what=dict(mass="b.state.mass"))
+    assert len(vtu) == 2 and not list(tmp_path.glob("r-intrs*"))
+    head = vtu[-1].read_text(errors="replace")
+    assert 'NumberOfPoints="9"' in head and 'Name="mass"' in head and 'Name="clumpId"' in head
+    ex = export.VTKExporter(str(tmp_path / "e"))
+    ex.exportSpheres(what=dict(mass="b.state.mass", clump="b.clumpId"))
     text = next(tmp_path.glob("e-spheres*.vtk")).read_text()
     assert "POINTS 9 " in text
+    masses = [float(x) for x in text.split("SCALARS mass double 1\nLOOKUP_TABLE default\n")[1].split()[:9]]
+    assert masses == pytest.approx([O.bodies[i].state.mass for i in cy.sphere_member_ids(cids[0])] * 3, rel=1e-6)
+    n_contacts = len([i for i in O.interactions if i.isReal])
+    assert n_contacts >= 2  # spheres of neighbouring clumps
+    ex.exportInteractions(what=dict(fn="i.phys.normalForce.norm()"))
+    assert f"LINES {n_contacts} " in next(tmp_path.glob("e-intrs*.vtk")).read_text()
     assert cy.check().ok
+
+
+# YADE's VTKRecorder (Debian's builds of 2023.02a and 2025.2 have YADE_MPI) has two int members,
+# rank and commSize, that its constructor never initialises (they are set only when
+# parallelMode=True). Its interaction writer then tests `if (rank == 0)` without checking
+# parallelMode and writes a parallel .pvtp summary with commSize (garbage) pieces:
+# vtkXMLWriter::WriteCellDataAppendedData segfaults. Whether it happens depends on what the
+# heap held at the recorder's address (import order, earlier allocations): random. A script
+# makes it deterministic: it frees a chunk of sizeof(VTKRecorder) = 0x128 bytes filled with
+# chosen bytes just before the recorder is built, and glibc's allocator (LIFO per-thread cache)
+# hands that chunk to `new VTKRecorder`. 0xFF bytes: rank = -1, the writer behaves; zero bytes: rank = 0.
+VTK_RECORDER = textwrap.dedent(
+    """
+    import ctypes, os, sys
+    os.environ["OMP_NUM_THREADS"] = "1"
+    fill, corrected, out, recorders = sys.argv[1], sys.argv[2] == "1", sys.argv[3], sys.argv[4].split(",")
+    import yade
+    from yade import utils
+    from yade.wrapper import (Bo1_Sphere_Aabb, ForceResetter, FrictMat, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider,
+                              InteractionLoop, Ip2_FrictMat_FrictMat_FrictPhys, Law2_ScGeom_FrictPhys_CundallStrack,
+                              NewtonIntegrator, VTKRecorder)
+    O = yade.O
+    O.materials.append(FrictMat(density=1140.0, young=1e7, poisson=0.4, label="mat"))
+    r = 0.1333 / 2
+    for k in range(3):
+        x = 0.12 * k
+        spheres = [utils.sphere(c, r, material="mat") for c in ((x, 0, -0.03), (x, 0, 0.03), (x, 0.03, 0))]
+        if corrected:
+            from clumpprops import yade as cy
+            cy.append_clump(spheres)
+        else:  # plain YADE: clumpprops is not even imported
+            O.bodies.appendClumped(spheres)
+    libc = ctypes.CDLL(None)
+    libc.malloc.restype = ctypes.c_void_p
+    libc.free.argtypes = [ctypes.c_void_p]
+    chunk = libc.malloc(0x128)
+    ctypes.memset(chunk, 0xFF if fill == "ff" else 0, 0x128)
+    libc.free(chunk)
+    recorder = VTKRecorder(fileName=os.path.join(out, "r-"), recorders=recorders, iterPeriod=1)
+    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
+                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],
+                                 [Law2_ScGeom_FrictPhys_CundallStrack()]),
+                 NewtonIntegrator(damping=0), recorder]
+    O.dt = 1e-5
+    O.run(2, True)
+    assert not corrected or cy.check().ok
+    print("contacts", len([i for i in O.interactions if i.isReal]))
+    print("ran")
+    """
+)
+
+
+def run_vtk_recorder(tmp_path, fill, corrected, recorders):
+    script = tmp_path / "vtk.py"
+    script.write_text(VTK_RECORDER)
+    out = tmp_path / "out"
+    out.mkdir()
+    p = subprocess.run([sys.executable, str(script), fill, "1" if corrected else "0", str(out), ",".join(recorders)],
+                       capture_output=True, text=True, timeout=180, cwd=tmp_path)
+    return p, out
+
+
+@pytest.mark.parametrize("recorders", [["all"], VTK_INTR_RECORDERS[1:]], ids=["all", "intr-cpm-jcfpm-wpm-liquidcontrol"])
+def test_vtk_recorder_interactions_with_corrected_clumps(tmp_path, recorders):
+    """With YADE's uninitialised rank made nonzero, VTKRecorder(recorders=['all']) and every
+    recorder that writes interactions run on corrected clumps in contact: 9 spheres (no
+    correction) with their mass and clump ids, the contacts as lines, the clumps exact after."""
+    p, out = run_vtk_recorder(tmp_path, "ff", True, recorders)
+    assert p.returncode == 0 and "ran" in p.stdout, p.stderr[-2000:]
+    n_contacts = int(p.stdout.split("contacts")[1].split()[0])
+    assert n_contacts >= 2
+    intrs = sorted(out.glob("r-intrs.*.vtp"))
+    assert len(intrs) == 2 and not list(out.glob("*.pvtp"))
+    assert f'NumberOfLines="{n_contacts}"' in intrs[-1].read_text(errors="replace")
+    if recorders == ["all"]:
+        head = sorted(out.glob("r-spheres.*.vtu"))[-1].read_text(errors="replace")
+        assert 'NumberOfPoints="9"' in head and 'Name="mass"' in head and 'Name="clumpId"' in head
+
+
+@pytest.mark.parametrize("recorders, crashes", [(["intr"], True), (["all"], True), (VTK_OTHER_RECORDERS, False)],
+                         ids=["intr", "all", "others"])
+def test_vtk_recorder_interactions_crash_in_yade_itself(tmp_path, recorders, crashes):
+    """Negative control, the limit of the adapter: plain YADE (clumpprops not imported, no
+    correction) segfaults in VTKRecorder's interaction writer when the recorder's uninitialised
+    rank happens to be 0; the other recorders never read it. This fails (and docs/yade_adapter.md
+    must be updated) once a YADE initialises rank or checks parallelMode there."""
+    p, out = run_vtk_recorder(tmp_path, "zero", False, recorders)
+    if crashes:
+        assert p.returncode == -signal.SIGSEGV and "ran" not in p.stdout, (p.returncode, p.stderr[-2000:])
+        assert list(out.glob("r-intrs_0_0.vtp"))  # the piece of the parallel file it should never have written
+    else:
+        assert p.returncode == 0 and "ran" in p.stdout, p.stderr[-2000:]
 
 
 # ---------------------------------------------------------------- text_clumps: a drop-in for ymport.textClumps
