@@ -63,6 +63,30 @@ struct TripleOverlap {
 // ------------------------------------------------------------------ small helpers
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
+// the first n entries of a workspace vector set to value (the vector only grows: no allocation in
+// the steady state, no call per use)
+template <class T>
+inline T* filled(std::vector<T>& v, std::size_t n, T value) {
+  if (v.size() < n) v.resize(n);
+  T* p = v.data();
+  for (std::size_t i = 0; i < n; ++i) p[i] = value;
+  return p;
+}
+
+// insertion sort: the arrays sorted per sphere or per circle are short
+template <class T, class Less>
+inline void small_sort(T* a, int n, Less less) {
+  for (int i = 1; i < n; ++i) {
+    T x = a[i];
+    int j = i - 1;
+    while (j >= 0 && less(x, a[j])) {
+      a[j + 1] = a[j];
+      --j;
+    }
+    a[j + 1] = x;
+  }
+}
+
 // pseudo-angle of (x, y): monotone in atan2(y, x) mod 2 pi, in [0, 4); relative resolution of
 // double near every angle (used only to sort crossing points; angles come from atan2).
 inline double diamond(double x, double y) {
@@ -82,7 +106,7 @@ struct PairSearch {
   std::vector<double> lo, hi, sw;  // sweep order: interval ends; (c_x, c_y, c_z, r) of each sphere
 
   // exact overlap test of spheres a < b, and the pair (D, unit direction)
-  static bool test(const double* c, const double* r, int a, int b, std::vector<Pair>& out) {
+  static bool test(const double* c, const double* r, int a, int b, Pair& p) {
     const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
     const double s = r[a] + r[b];
     const double d2 = dx * dx + dy * dy + dz * dz;
@@ -91,7 +115,6 @@ struct PairSearch {
     if (d2 > s2 * (1.0 + 1e-12) && s2 > 1e-290) return false;
     const double D = std::sqrt(d2);
     if (!(D < s)) return false;
-    Pair p;
     p.a = a;
     p.b = b;
     p.D = D;
@@ -104,8 +127,11 @@ struct PairSearch {
       p.e[1] = 0.0;
       p.e[2] = 1.0;
     }
-    out.push_back(p);
     return true;
+  }
+  static void test(const double* c, const double* r, int a, int b, std::vector<Pair>& out) {
+    Pair p;
+    if (test(c, r, a, b, p)) out.push_back(p);
   }
 
   void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
@@ -359,12 +385,13 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
   }
   const std::size_t KK = static_cast<std::size_t>(K) * K;
   const int stride = 2 * (K - 1);  // at most two events per other circle
-  M.resize(KK);
-  cross.assign(KK, 0);
-  coinc.assign(KK, 0);
-  ev.resize(static_cast<std::size_t>(K) * stride);
-  nev.assign(K, 0);
-  enter_gt_leave.assign(K, 0);
+  if (M.size() < KK) M.resize(KK);
+  signed char* cross_ = filled(cross, KK, static_cast<signed char>(0));
+  signed char* coinc_ = filled(coinc, KK, static_cast<signed char>(0));
+  if (ev.size() < static_cast<std::size_t>(K) * stride) ev.resize(static_cast<std::size_t>(K) * stride);
+  int* nev_ = filled(nev, K, 0);
+  int* egl = filled(enter_gt_leave, K, 0);
+  double* M_ = M.data();
   // every pair of circles once (k < j): f_kj = M_kj + A cos t + B sin t on k (its frame), and the
   // mean M_jk of f_jk; crossings computed on the lower circle k and located on j from the same point
   for (int k = 0; k < K; ++k) {
@@ -376,16 +403,16 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       const double g = dot3(ck.n, cj.n);
       const double a = ck.rho * dot3(ck.e1, cj.n), b = ck.rho * dot3(ck.e2, cj.n);
       const double Rk = std::sqrt(a * a + b * b), mk = ck.h * g - cj.h;
-      M[kj] = mk;
-      M[jk] = cj.h * g - ck.h;
+      M_[kj] = mk;
+      M_[jk] = cj.h * g - ck.h;
       if (Rk <= kCoincident && std::fabs(mk) <= kCoincident && g > 0.0) {
-        coinc[kj] = coinc[jk] = 1;  // one circle, caps on the same side
+        coinc_[kj] = coinc_[jk] = 1;  // one circle, caps on the same side
         continue;
       }
       if (!(Rk > 0.0)) continue;
       const double ca = -mk / Rk;
       if (!(std::fabs(ca) < 1.0)) continue;
-      cross[kj] = cross[jk] = 1;
+      cross_[kj] = cross_[jk] = 1;
       const double sa = std::sqrt((1.0 - ca) * (1.0 + ca));
       const double cp = a / Rk, sp = b / Rk;
       // leave at phi + ac, enter at phi - ac (f_kj = M + R cos(t - phi) decreases through 0 at phi + ac)
@@ -397,9 +424,9 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
         Pe[x] = ck.h * ck.n[x] + ck.rho * (ce * ck.e1[x] + se * ck.e2[x]);
       }
       const double kl = diamond(cl, sl), ke = diamond(ce, se);
-      evk[nev[k]++] = {kl, cl, sl, -1};
-      evk[nev[k]++] = {ke, ce, se, +1};
-      if (ke > kl) ++enter_gt_leave[k];
+      evk[nev_[k]++] = {kl, cl, sl, -1};
+      evk[nev_[k]++] = {ke, ce, se, +1};
+      if (ke > kl) ++egl[k];
       // on j: where k leaves cap j, j enters cap k, and vice versa
       double xl = dot3(Pl, cj.e1), yl = dot3(Pl, cj.e2), xe = dot3(Pe, cj.e1), ye = dot3(Pe, cj.e2);
       const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
@@ -413,9 +440,9 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       }
       const double jl = diamond(xl, yl), je = diamond(xe, ye);
       Event* evj = ev.data() + static_cast<std::size_t>(j) * stride;
-      evj[nev[j]++] = {jl, xl, yl, +1};
-      evj[nev[j]++] = {je, xe, ye, -1};
-      if (jl > je) ++enter_gt_leave[j];
+      evj[nev_[j]++] = {jl, xl, yl, +1};
+      evj[nev_[j]++] = {je, xe, ye, -1};
+      if (jl > je) ++egl[j];
     }
   }
   // pole for the area form
@@ -433,16 +460,16 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     for (int j = 0; j < K && !covered; ++j) {
       if (j == k) continue;
       const std::size_t kj = static_cast<std::size_t>(k) * K + j;
-      if (cross[kj]) continue;
-      if (coinc[kj])
+      if (cross_[kj]) continue;
+      if (coinc_[kj])
         covered = C[j].rank < ck.rank;  // of one circle, the lower-ranked cap bounds the region
       else
-        covered = M[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
+        covered = M_[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
     }
     if (covered) continue;
     // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
     Event* E = ev.data() + static_cast<std::size_t>(k) * stride;
-    const int P = nev[k];
+    const int P = nev_[k];
     double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, Iccc = 0, Isss = 0, Iccs = 0, Icss = 0;
     double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
     // pole in the circle's frame
@@ -463,10 +490,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
       dG = 0.0;
     } else {
-      std::sort(E, E + P, [](const Event& x, const Event& y) {
+      small_sort(E, P, [](const Event& x, const Event& y) {
         return x.key < y.key || (x.key == y.key && x.type > y.type);
       });
-      int depth = enter_gt_leave[k];
+      int depth = egl[k];
       for (int p = 0; p < P; ++p) {
         depth += E[p].type;
         if (depth != 0) continue;
@@ -582,7 +609,7 @@ struct ExactWorkspace {
 // Caps of every sphere (sorted by owner, then other) and the buried spheres.
 inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
   w.search.overlapping(c, r, n, w.pairs);
-  w.buried.assign(n, 0);
+  signed char* buried = filled(w.buried, n, static_cast<signed char>(0));
   // containment, scale-aware: a is inside b when its protrusion (r_a - r_b) + D is at most
   // tau min(r_a, r_b).  Of two spheres inside each other (near-identical), exactly one goes: the
   // later in the order (larger radius first, then lower index), so one of each group stays.
@@ -592,13 +619,13 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
     const bool a_in_b = (ra - rb) + p.D <= tol;
     const bool b_in_a = (rb - ra) + p.D <= tol;
     const bool a_first = ra >= rb;
-    if (a_in_b && !(b_in_a && a_first)) w.buried[p.a] = 1;
-    if (b_in_a && !(a_in_b && !a_first)) w.buried[p.b] = 1;
+    if (a_in_b && !(b_in_a && a_first)) buried[p.a] = 1;
+    if (b_in_a && !(a_in_b && !a_first)) buried[p.b] = 1;
   }
   w.caps.clear();
   for (const Pair& p : w.pairs) {
     const double ra = r[p.a], rb = r[p.b], D = p.D;
-    if (w.buried[p.a] || w.buried[p.b]) continue;  // (every containment pair buried one of its spheres)
+    if (buried[p.a] || buried[p.b]) continue;  // (every containment pair buried one of its spheres)
     const double delta = ra + rb - D;
     const double omh_a = delta * ((rb - ra) + D) / (2.0 * ra * D);
     const double oph_a = ((ra - rb) + D) * (ra + D + rb) / (2.0 * ra * D);
@@ -609,8 +636,8 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
     const double rho_a = std::sqrt(std::max(omh_a * oph_a, 0.0)), rho_b = std::sqrt(std::max(omh_b * oph_b, 0.0));
     if (std::max(rho_a, rho_b) < kRhoTangent) {
       // near-tangent pair: tangent.  Externally: no caps; internally: the inner sphere is buried
-      if (h_a < 0.0) w.buried[p.a] = 1;
-      if (h_b < 0.0) w.buried[p.b] = 1;
+      if (h_a < 0.0) buried[p.a] = 1;
+      if (h_b < 0.0) buried[p.b] = 1;
       continue;
     }
     Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a};
@@ -619,25 +646,24 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
     w.caps.push_back(cb);
   }
   // drop caps of or by buried spheres; group by owner, sort by other
-  w.count.assign(n, 0);
+  int* count = filled(w.count, n, 0);
   std::size_t kept = 0;
   for (const Cap& cp : w.caps)
-    if (!w.buried[cp.owner] && !w.buried[cp.other]) {
+    if (!buried[cp.owner] && !buried[cp.other]) {
       w.caps[kept++] = cp;
-      ++w.count[cp.owner];
+      ++count[cp.owner];
     }
   w.caps.resize(kept);
-  w.start.assign(n + 1, 0);
-  for (int i = 0; i < n; ++i) w.start[i + 1] = w.start[i] + w.count[i];
-  w.sorted.resize(kept);
-  std::vector<int>& fill = w.count;  // reuse as fill pointer
-  for (int i = 0; i < n; ++i) fill[i] = w.start[i];
-  for (const Cap& cp : w.caps) w.sorted[fill[cp.owner]++] = cp;
-  for (int i = 0; i < n; ++i) {
-    Cap* b = w.sorted.data() + w.start[i];
-    Cap* e = w.sorted.data() + w.start[i + 1];
-    if (e - b > 1) std::sort(b, e, [](const Cap& x, const Cap& y) { return x.other < y.other; });
-  }
+  int* start = filled(w.start, n + 1, 0);
+  for (int i = 0; i < n; ++i) start[i + 1] = start[i] + count[i];
+  if (w.sorted.size() < kept) w.sorted.resize(kept);
+  Cap* sorted = w.sorted.data();
+  int* fill = count;  // reuse as fill pointer
+  for (int i = 0; i < n; ++i) fill[i] = start[i];
+  for (const Cap& cp : w.caps) sorted[fill[cp.owner]++] = cp;
+  for (int i = 0; i < n; ++i)
+    if (start[i + 1] - start[i] > 1)
+      small_sort(sorted + start[i], start[i + 1] - start[i], [](const Cap& x, const Cap& y) { return x.other < y.other; });
 }
 
 // The caps of one sphere that matter (docs/exact_method.md, section 2a), compacted in place:
@@ -649,12 +675,11 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
 // Returns the new K (or -1).
 inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
   if (K < 2) return K;  // one cap: closed form (single_cap), no angular radius needed
-  w.alpha.assign(K, NAN);  // angular radii atan2(rho, h), computed when first needed
-  w.drop.assign(K, 0);
-  std::vector<signed char>& coinc = w.coinc;
-  coinc.assign(static_cast<std::size_t>(K) * K, 0);
+  double* alpha_ = filled(w.alpha, K, static_cast<double>(NAN));  // angular radii atan2(rho, h), when first needed
+  signed char* drop = filled(w.drop, K, static_cast<signed char>(0));
+  signed char* coinc = filled(w.coinc, static_cast<std::size_t>(K) * K, static_cast<signed char>(0));
   auto alpha = [&](int k) {
-    double& a = w.alpha[k];
+    double& a = alpha_[k];
     if (std::isnan(a)) a = std::atan2(caps[k].rho, caps[k].h);
     return a;
   };
@@ -674,9 +699,9 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
         coinc[static_cast<std::size_t>(k) * K + j] = coinc[static_cast<std::size_t>(j) * K + k] = 1;
         // the same cap twice: keep the lower-ranked
         if (caps[k].other < caps[j].other)
-          w.drop[j] = 1;
+          drop[j] = 1;
         else
-          w.drop[k] = 1;
+          drop[k] = 1;
       }
     }
   auto inside = [&](int j, int k) {  // cap j within cap k
@@ -692,15 +717,16 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
     return theta + alpha(j) <= alpha(k);
   };
   // a cap dropped as a coincident copy is no container (its kept twin is): remember those flags
-  w.copy.assign(w.drop.begin(), w.drop.end());
+  signed char* copy = filled(w.copy, K, static_cast<signed char>(0));
+  for (int k = 0; k < K; ++k) copy[k] = drop[k];
   for (int j = 0; j < K; ++j)
-    for (int k = 0; k < K && !w.drop[j]; ++k) {
-      if (k == j || w.copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
-      if (inside(j, k)) w.drop[j] = 1;
+    for (int k = 0; k < K && !drop[j]; ++k) {
+      if (k == j || copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
+      if (inside(j, k)) drop[j] = 1;
     }
   int m = 0;
   for (int k = 0; k < K; ++k)
-    if (!w.drop[k]) caps[m++] = caps[k];
+    if (!drop[k]) caps[m++] = caps[k];
   return m;
 }
 
@@ -801,6 +827,7 @@ struct PairwiseWorkspace {
   std::vector<int> adj_start, adj;  // CSR adjacency: neighbours of each sphere
   std::vector<int> pair_of;         // pair index of each adjacency entry
   std::vector<int> mark;            // mark[k] = pair index (j,k) + 1 while scanning j
+  std::vector<int> fill;            // fill pointers while building adj
 };
 
 // Returns false (and fills t) if three spheres share a region.
@@ -816,7 +843,8 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
   for (int i = 0; i < n; ++i) w.adj_start[i + 1] += w.adj_start[i];
   w.adj.resize(2 * P.size());
   w.pair_of.resize(2 * P.size());
-  std::vector<int> fill(w.adj_start.begin(), w.adj_start.end() - 1);
+  int* fill = filled(w.fill, n, 0);
+  for (int i = 0; i < n; ++i) fill[i] = w.adj_start[i];
   for (int q = 0; q < static_cast<int>(P.size()); ++q) {
     const Pair& p = P[q];
     w.adj[fill[p.a]] = p.b;
@@ -855,16 +883,23 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
 inline bool pairwise_moments(const double* c, const double* r, int n, bool check, Moments& out, PairwiseWorkspace& w,
                              TripleOverlap& t) {
   sum_moments(c, r, n, out);
-  w.search.overlapping(c, r, n, w.pairs);
-  if (check && !check_no_triple_overlap(c, r, n, w, t)) return false;
-  for (const Pair& p : w.pairs) {
+  auto subtract_lens = [&](const Pair& p) {
     double Vl, pos[3], st, sax;
     lens_moments(r[p.a], r[p.b], c + 3 * p.a, c + 3 * p.b, p.D, p.e, Vl, pos, st, sax);
     out.V -= Vl;
     for (int x = 0; x < 3; ++x) out.S[x] -= Vl * pos[x];
     for (int x = 0; x < 3; ++x)
       for (int y = 0; y < 3; ++y) out.Q[3 * x + y] -= Vl * pos[x] * pos[y] + sax * p.e[x] * p.e[y] + (x == y ? st : 0.0);
+  };
+  t = TripleOverlap();
+  if (n == 2) {  // one pair at most, no triple: no search
+    Pair p;
+    if (PairSearch::test(c, r, 0, 1, p)) subtract_lens(p);
+    return true;
   }
+  w.search.overlapping(c, r, n, w.pairs);
+  if (check && !check_no_triple_overlap(c, r, n, w, t)) return false;
+  for (const Pair& p : w.pairs) subtract_lens(p);
   return true;
 }
 
@@ -975,10 +1010,11 @@ struct Result {
 // axis: if not null, the body is symmetric about this unit axis (principal axes in closed form)
 inline Status finish(const Moments& m, const double* origin, double density, bool principal, Result& res,
                      const double* axis = nullptr) {
-  bool finite = std::isfinite(m.V);
-  for (int x = 0; x < 3; ++x) finite = finite && std::isfinite(m.S[x]);
-  for (int x = 0; x < 9; ++x) finite = finite && std::isfinite(m.Q[x]) && std::isfinite(m.Q[x] * density);
-  if (!finite) return kOverflow;
+  // all finite, Q * density too: x * 0 is NaN exactly for x = +-inf or NaN, and a sum with a NaN is NaN
+  double z = m.V * 0.0;
+  for (int x = 0; x < 3; ++x) z += m.S[x] * 0.0;
+  for (int x = 0; x < 9; ++x) z += (m.Q[x] * density) * 0.0;
+  if (!(z == 0.0)) return kOverflow;
   if (!(m.V > 0.0)) return kNonPositiveVolume;
   double d[3], Qc[9];
   for (int x = 0; x < 3; ++x) d[x] = m.S[x] / m.V;
@@ -992,8 +1028,9 @@ inline Status finish(const Moments& m, const double* origin, double density, boo
       if (x == y) I += tr;
       res.inertia[3 * x + y] = I;
     }
-  for (int x = 0; x < 9; ++x)
-    if (!std::isfinite(res.inertia[x])) return kOverflow;
+  double zi = 0.0;
+  for (int x = 0; x < 9; ++x) zi += res.inertia[x] * 0.0;
+  if (!(zi == 0.0)) return kOverflow;
   for (int x = 0; x < 3; ++x) res.com[x] = origin[x] + d[x];
   res.mass = density * m.V;
   res.volume = m.V;
