@@ -167,18 +167,18 @@ struct PairSearch {
       sw[4 * p + 3] = r[i];
     }
     for (int p = 0; p < n; ++p) lo[p] = sw[4 * p + ax] - sw[4 * p + 3];  // lo in sweep order
+    // the two other axes (the sweep axis' intervals overlap already)
+    const int o1 = ax == 0 ? 1 : 0, o2 = ax == 2 ? 1 : 2;
     for (int p = 0; p < n; ++p) {
       const double* sp = &sw[4 * p];
       const double hp = hi[p];
       for (int q = p + 1; q < n; ++q) {
         if (!(lo[q] < hp)) break;
         const double* sq = &sw[4 * q];
-        // |c_x difference| > s (1 + 1e-12) implies D >= s (no underflow: s > 1e-140)
+        // |c_y difference| > s (1 + 1e-12) implies D >= s (no underflow: s > 1e-140)
         const double s = sp[3] + sq[3];
         const double lim = s * (1.0 + 1e-12);
-        if ((std::fabs(sq[0] - sp[0]) > lim || std::fabs(sq[1] - sp[1]) > lim || std::fabs(sq[2] - sp[2]) > lim) &&
-            s > 1e-140)
-          continue;
+        if (((std::fabs(sq[o1] - sp[o1]) > lim) | (std::fabs(sq[o2] - sp[o2]) > lim)) && s > 1e-140) continue;
         const int i = order[p], j = order[q];
         test(c, r, std::min(i, j), std::max(i, j), out);
       }
