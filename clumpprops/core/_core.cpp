@@ -65,7 +65,8 @@ static py::tuple run(int method, carr centers, carr radii, py::object starts_obj
   clumpprops::TripleOverlap t;
   {
     py::gil_scoped_release release;
-    thread_local Engine eng;
+    thread_local Engine tl_engine;
+    Engine& eng = tl_engine;  // one TLS look-up per call, not per clump
     Result res;
     for (std::int64_t m = m0; m < m1; ++m) {
       std::int64_t s0, n;

@@ -52,7 +52,6 @@ struct Cap {
   int owner, other;  // cap cut on sphere `owner` by sphere `other`
   double n[3];       // unit axis towards `other`
   double h, rho;     // cap u.n > h on the unit sphere, rho = sqrt(1 - h^2) (from factored forms)
-  double alpha;      // angular radius atan2(rho, h) (set by prune_caps)
 };
 
 // Triple overlap found by the pairwise method's check (local sphere indices, sorted).
@@ -63,6 +62,30 @@ struct TripleOverlap {
 
 // ------------------------------------------------------------------ small helpers
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// the first n entries of a workspace vector set to value (the vector only grows: no allocation in
+// the steady state, no call per use)
+template <class T>
+inline T* filled(std::vector<T>& v, std::size_t n, T value) {
+  if (v.size() < n) v.resize(n);
+  T* p = v.data();
+  for (std::size_t i = 0; i < n; ++i) p[i] = value;
+  return p;
+}
+
+// insertion sort: the arrays sorted per sphere or per circle are short
+template <class T, class Less>
+inline void small_sort(T* a, int n, Less less) {
+  for (int i = 1; i < n; ++i) {
+    T x = a[i];
+    int j = i - 1;
+    while (j >= 0 && less(x, a[j])) {
+      a[j + 1] = a[j];
+      --j;
+    }
+    a[j + 1] = x;
+  }
+}
 
 // pseudo-angle of (x, y): monotone in atan2(y, x) mod 2 pi, in [0, 4); relative resolution of
 // double near every angle (used only to sort crossing points; angles come from atan2).
@@ -75,15 +98,47 @@ inline double diamond(double x, double y) {
 // Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps; above, sort and sweep
 // along the axis of largest extent (a pair can only overlap if its intervals c_x +- r overlap),
 // so a clump where each sphere meets a bounded number of others costs O(N log N + overlaps).
+// Candidates are screened with comparisons that only reject pairs the exact test
+// fl(sqrt(dx^2 + dy^2 + dz^2)) < r_a + r_b rejects too (margins far above round-off, and only
+// where no square underflows), so the pairs and their order are those of the plain loops.
 struct PairSearch {
   std::vector<int> order;
-  std::vector<double> lo;
+  std::vector<double> lo, hi, sw;  // sweep order: interval ends; (c_x, c_y, c_z, r) of each sphere
 
-  template <class F>
-  void for_each_candidate(const double* c, const double* r, int n, F&& f) {
+  // exact overlap test of spheres a < b, and the pair (D, unit direction)
+  static bool test(const double* c, const double* r, int a, int b, Pair& p) {
+    const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
+    const double s = r[a] + r[b];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    // d2 > s^2 (1 + 1e-12) implies fl(sqrt(d2)) >= s; s^2 must be a normal number for that
+    const double s2 = s * s;
+    if (d2 > s2 * (1.0 + 1e-12) && s2 > 1e-290) return false;
+    const double D = std::sqrt(d2);
+    if (!(D < s)) return false;
+    p.a = a;
+    p.b = b;
+    p.D = D;
+    if (D > 0.0) {
+      p.e[0] = dx / D;
+      p.e[1] = dy / D;
+      p.e[2] = dz / D;
+    } else {
+      p.e[0] = 0.0;
+      p.e[1] = 0.0;
+      p.e[2] = 1.0;
+    }
+    return true;
+  }
+  static void test(const double* c, const double* r, int a, int b, std::vector<Pair>& out) {
+    Pair p;
+    if (test(c, r, a, b, p)) out.push_back(p);
+  }
+
+  void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
+    out.clear();
     if (n <= 40) {
       for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j) f(i, j);
+        for (int j = i + 1; j < n; ++j) test(c, r, i, j, out);
       return;
     }
     double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]};
@@ -102,39 +157,32 @@ struct PairSearch {
       lo[i] = c[3 * i + ax] - r[i];
     }
     std::sort(order.begin(), order.end(), [&](int p, int q) { return lo[p] < lo[q] || (lo[p] == lo[q] && p < q); });
+    // contiguous copies in sweep order
+    hi.resize(n);
+    sw.resize(4 * static_cast<std::size_t>(n));
     for (int p = 0; p < n; ++p) {
       const int i = order[p];
-      const double hi = c[3 * i + ax] + r[i];
+      hi[p] = c[3 * i + ax] + r[i];
+      for (int x = 0; x < 3; ++x) sw[4 * p + x] = c[3 * i + x];
+      sw[4 * p + 3] = r[i];
+    }
+    for (int p = 0; p < n; ++p) lo[p] = sw[4 * p + ax] - sw[4 * p + 3];  // lo in sweep order
+    // the two other axes (the sweep axis' intervals overlap already)
+    const int o1 = ax == 0 ? 1 : 0, o2 = ax == 2 ? 1 : 2;
+    for (int p = 0; p < n; ++p) {
+      const double* sp = &sw[4 * p];
+      const double hp = hi[p];
       for (int q = p + 1; q < n; ++q) {
-        const int j = order[q];
-        if (!(lo[j] < hi)) break;
-        f(std::min(i, j), std::max(i, j));
+        if (!(lo[q] < hp)) break;
+        const double* sq = &sw[4 * q];
+        // |c_y difference| > s (1 + 1e-12) implies D >= s (no underflow: s > 1e-140)
+        const double s = sp[3] + sq[3];
+        const double lim = s * (1.0 + 1e-12);
+        if (((std::fabs(sq[o1] - sp[o1]) > lim) | (std::fabs(sq[o2] - sp[o2]) > lim)) && s > 1e-140) continue;
+        const int i = order[p], j = order[q];
+        test(c, r, std::min(i, j), std::max(i, j), out);
       }
     }
-  }
-
-  void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
-    out.clear();
-    for_each_candidate(c, r, n, [&](int a, int b) {
-      const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
-      const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
-      if (D < r[a] + r[b]) {
-        Pair p;
-        p.a = a;
-        p.b = b;
-        p.D = D;
-        if (D > 0.0) {
-          p.e[0] = dx / D;
-          p.e[1] = dy / D;
-          p.e[2] = dz / D;
-        } else {
-          p.e[0] = 0.0;
-          p.e[1] = 0.0;
-          p.e[2] = 1.0;
-        }
-        out.push_back(p);
-      }
-    });
   }
 };
 
@@ -156,12 +204,13 @@ inline void sum_moments(const double* c, const double* r, int n, Moments& m) {
 // ------------------------------------------------------------------ unit-sphere moments -> volume moments
 // Moments of the exposed region E of one unit sphere: a = int_E 1, m1 = int_E u, m2 = int_E u u^T,
 // and m3 = int_E u u u (dOmega) contracted with the sphere centre c: m3c_xy = sum_z m3_xyz c_z
-// (the only way m3 enters).  Volume moments (divergence theorem, docs/exact_method.md sec. 1).
+// (the only way m3 enters).  Volume moments (divergence theorem, docs/exact_method.md sec. 1) need
+// only a, m1, m2 c and the symmetric r m2 + m3c (r the sphere's radius), which are what is kept.
 struct SurfaceMoments {
   double a;
   double m1[3];
-  double m2[9];
-  double m3c[9];
+  double m2c[3];  // m2 c
+  double Qs[9];   // r m2 + m3c
 };
 
 inline void add_from_surface(const double* c, double r, const SurfaceMoments& s, Moments& out) {
@@ -169,20 +218,20 @@ inline void add_from_surface(const double* c, double r, const SurfaceMoments& s,
   const double base = r * s.a + cm1;
   const double r2 = r * r;
   out.V += r2 / 3.0 * base;
-  double m2c[3];
-  for (int x = 0; x < 3; ++x) m2c[x] = s.m2[3 * x] * c[0] + s.m2[3 * x + 1] * c[1] + s.m2[3 * x + 2] * c[2];
+  const double* m2c = s.m2c;
   for (int x = 0; x < 3; ++x) out.S[x] += r2 / 4.0 * (c[x] * base + r2 * s.m1[x] + r * m2c[x]);
   const double f = r2 / 5.0;
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y) {
-      const double m3c = s.m3c[3 * x + y];
-      out.Q[3 * x + y] += f * (c[x] * c[y] * base + r2 * (c[x] * s.m1[y] + s.m1[x] * c[y]) +
-                               r * (c[x] * m2c[y] + m2c[x] * c[y]) + r2 * r * s.m2[3 * x + y] + r2 * m3c);
+    for (int y = x; y < 3; ++y) {
+      const double q = f * (c[x] * c[y] * base + r2 * (c[x] * s.m1[y] + s.m1[x] * c[y]) +
+                            r * (c[x] * m2c[y] + m2c[x] * c[y]) + r2 * s.Qs[3 * x + y]);
+      out.Q[3 * x + y] += q;
+      if (y != x) out.Q[3 * y + x] += q;
     }
 }
 
 // the unit sphere minus one cap u.n > h, closed form (docs/exact_method.md; 1 - h from rho^2/(1+h))
-inline void single_cap(const double* n, double h, double rho, const double* c, SurfaceMoments& s) {
+inline void single_cap(const double* n, double h, double rho, const double* c, double r, SurfaceMoments& s) {
   const double w = h > 0.0 ? rho * rho / (1.0 + h) : 1.0 - h;  // 1 - h
   const double oph = 2.0 - w;
   const double one_m_h2 = w * oph;
@@ -191,12 +240,14 @@ inline void single_cap(const double* n, double h, double rho, const double* c, S
   s.a = kFourPi - 2.0 * kPi * w;
   for (int x = 0; x < 3; ++x) s.m1[x] = -(kPi * one_m_h2) * n[x];
   const double c_nn = 2.0 * kPi * one_m_h3 / 3.0, c_p = kPi * (w - one_m_h3 / 3.0);
+  double m2[9];
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y) {
+    for (int y = x; y < 3; ++y) {
       const double nn = n[x] * n[y];
       const double P = (x == y ? 1.0 : 0.0) - nn;
-      s.m2[3 * x + y] = (x == y ? kFourPi / 3.0 : 0.0) - (c_nn * nn + c_p * P);
+      m2[3 * x + y] = m2[3 * y + x] = (x == y ? kFourPi / 3.0 : 0.0) - (c_nn * nn + c_p * P);
     }
+  for (int x = 0; x < 3; ++x) s.m2c[x] = m2[3 * x] * c[0] + m2[3 * x + 1] * c[1] + m2[3 * x + 2] * c[2];
   const double alpha = 0.5 * kPi * one_m_h4;
   const double beta = kPi * (0.5 * one_m_h2 - 0.25 * one_m_h4);
   // m3 = -(alpha n n n + beta sym(n P)), sym(n P)_xyz = n_x P_yz + n_y P_xz + n_z P_xy; contracted with c
@@ -204,9 +255,10 @@ inline void single_cap(const double* n, double h, double rho, const double* c, S
   double Pc[3];
   for (int x = 0; x < 3; ++x) Pc[x] = c[x] - n[x] * nc;
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y) {
+    for (int y = x; y < 3; ++y) {
       const double Pxy = (x == y ? 1.0 : 0.0) - n[x] * n[y];
-      s.m3c[3 * x + y] = -(alpha * n[x] * n[y] * nc + beta * (n[x] * Pc[y] + n[y] * Pc[x] + nc * Pxy));
+      const double m3c = -(alpha * n[x] * n[y] * nc + beta * (n[x] * Pc[y] + n[y] * Pc[x] + nc * Pxy));
+      s.Qs[3 * x + y] = s.Qs[3 * y + x] = r * m2[3 * x + y] + m3c;
     }
 }
 
@@ -216,22 +268,21 @@ class Arrangement {
  public:
   struct Circle {
     double n[3], e1[3], e2[3];
-    double h, rho, alpha;
+    double h, rho;
     int rank;
   };
   struct Event {
     double key;  // pseudo-angle on the circle (sort key)
     double c, s;  // cos t, sin t of the point in the circle's own frame
     int type;     // +1: the circle enters the other cap here, -1: leaves it
-    int pt;       // index of the point's angle cache
   };
 
   std::vector<Circle> C;
-  std::vector<double> A, B, R, M, G;  // K x K, [k*K + j]: f_kj(t) = u_k(t).n_j - h_j = M + A cos t + B sin t
+  std::vector<double> M;  // K x K, [k*K + j]: mean of f_kj(t) = u_k(t).n_j - h_j = M + A cos t + B sin t
   std::vector<signed char> cross, coinc;  // K x K, symmetric
-  std::vector<std::vector<Event>> ev;
+  std::vector<Event> ev;  // circle k's events at [k * 2(K-1), k * 2(K-1) + nev[k])
+  std::vector<int> nev;
   std::vector<int> enter_gt_leave;  // per circle: crossed caps whose entry key > exit key (inside at t = 0)
-  std::vector<double> ang;  // angle cache per point (NaN until computed)
 
   static void basis(const double* n, double* e1, double* e2) {
     double ax[3] = {1.0, 0.0, 0.0};
@@ -249,7 +300,7 @@ class Arrangement {
   }
 
   // caps: K caps of one sphere, sorted by `other` (their rank for ties)
-  void compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out);
+  void compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out);
 
  private:
   void choose_pole(int K, double* q);
@@ -281,19 +332,19 @@ inline void Arrangement::choose_pole(int K, double* q) {
       {-0.5773502691896258, -0.5773502691896258, 0.5773502691896258},
       {-0.5773502691896258, -0.5773502691896258, -0.5773502691896258},
       {-0.5773502691896258, 0.5773502691896258, -0.5773502691896258}};
-  static const double deltas[3] = {0.35, 0.15, 0.05};
   static const double cosd[3] = {std::cos(0.35), std::cos(0.15), std::cos(0.05)};
   static const double sind[3] = {std::sin(0.35), std::sin(0.15), std::sin(0.05)};
   for (int di = 0; di < 3; ++di) {
-    const double delta = deltas[di], cd = cosd[di], sd = sind[di];
+    const double cd = cosd[di], sd = sind[di];
     for (const auto& qq : cand) {
       bool ok = true;
       for (int k = 0; k < K && ok; ++k) {
         const Circle& c = C[k];
         const double x = -dot3(qq, c.n);  // cos of the angle between -q and n
-        // |angle - alpha| >= delta  <=>  angle >= alpha + delta or angle <= alpha - delta
-        const bool far_out = c.alpha + delta <= kPi && x <= c.h * cd - c.rho * sd;
-        const bool far_in = c.alpha - delta >= 0.0 && x >= c.h * cd + c.rho * sd;
+        // |angle - alpha| >= delta  <=>  angle >= alpha + delta or angle <= alpha - delta, where
+        // alpha = acos(h); alpha + delta <= pi <=> h >= -cos(delta), alpha - delta >= 0 <=> h <= cos(delta)
+        const bool far_out = c.h >= -cd && x <= c.h * cd - c.rho * sd;
+        const bool far_in = c.h <= cd && x >= c.h * cd + c.rho * sd;
         ok = far_out || far_in;
       }
       if (ok) {
@@ -310,7 +361,7 @@ inline void Arrangement::choose_pole(int K, double* q) {
     double mn = 1e300;
     for (int k = 0; k < K; ++k) {
       const double x = std::max(-1.0, std::min(1.0, -dot3(cand[p], C[k].n)));
-      mn = std::min(mn, std::fabs(std::acos(x) - C[k].alpha));
+      mn = std::min(mn, std::fabs(std::acos(x) - std::atan2(C[k].rho, C[k].h)));
     }
     if (mn > best) {
       best = mn;
@@ -322,62 +373,48 @@ inline void Arrangement::choose_pole(int K, double* q) {
   q[2] = cand[ib][2];
 }
 
-inline void Arrangement::compute(const Cap* caps, int K, const double* centre, SurfaceMoments& out) {
+inline void Arrangement::compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out) {
   C.resize(K);
   for (int k = 0; k < K; ++k) {
     Circle& c = C[k];
     for (int x = 0; x < 3; ++x) c.n[x] = caps[k].n[x];
     c.h = caps[k].h;
     c.rho = caps[k].rho;
-    c.alpha = caps[k].alpha;
     c.rank = caps[k].other;
     basis(c.n, c.e1, c.e2);
   }
   const std::size_t KK = static_cast<std::size_t>(K) * K;
-  A.resize(KK);
-  B.resize(KK);
-  R.resize(KK);
-  M.resize(KK);
-  G.resize(KK);
-  cross.assign(KK, 0);
-  coinc.assign(KK, 0);
-  if (static_cast<int>(ev.size()) < K) ev.resize(K);
-  for (int k = 0; k < K; ++k) ev[k].clear();
-  enter_gt_leave.assign(K, 0);
-  ang.clear();
-  // f_kj for every ordered pair
+  const int stride = 2 * (K - 1);  // at most two events per other circle
+  if (M.size() < KK) M.resize(KK);
+  signed char* cross_ = filled(cross, KK, static_cast<signed char>(0));
+  signed char* coinc_ = filled(coinc, KK, static_cast<signed char>(0));
+  if (ev.size() < static_cast<std::size_t>(K) * stride) ev.resize(static_cast<std::size_t>(K) * stride);
+  int* nev_ = filled(nev, K, 0);
+  int* egl = filled(enter_gt_leave, K, 0);
+  double* M_ = M.data();
+  // every pair of circles once (k < j): f_kj = M_kj + A cos t + B sin t on k (its frame), and the
+  // mean M_jk of f_jk; crossings computed on the lower circle k and located on j from the same point
   for (int k = 0; k < K; ++k) {
     const Circle& ck = C[k];
-    for (int j = 0; j < K; ++j) {
-      if (j == k) continue;
-      const Circle& cj = C[j];
-      const std::size_t kj = static_cast<std::size_t>(k) * K + j;
-      const double g = dot3(ck.n, cj.n);
-      const double a = ck.rho * dot3(ck.e1, cj.n), b = ck.rho * dot3(ck.e2, cj.n);
-      A[kj] = a;
-      B[kj] = b;
-      R[kj] = std::sqrt(a * a + b * b);
-      M[kj] = ck.h * g - cj.h;
-      G[kj] = g;
-    }
-  }
-  // crossings, each computed once on the lower circle k < j and located on j from the same point
-  for (int k = 0; k < K; ++k) {
-    const Circle& ck = C[k];
+    Event* evk = ev.data() + static_cast<std::size_t>(k) * stride;
     for (int j = k + 1; j < K; ++j) {
       const Circle& cj = C[j];
       const std::size_t kj = static_cast<std::size_t>(k) * K + j, jk = static_cast<std::size_t>(j) * K + k;
-      const double Rk = R[kj], mk = M[kj];
-      if (Rk <= kCoincident && std::fabs(mk) <= kCoincident && G[kj] > 0.0) {
-        coinc[kj] = coinc[jk] = 1;  // one circle, caps on the same side
+      const double g = dot3(ck.n, cj.n);
+      const double a = ck.rho * dot3(ck.e1, cj.n), b = ck.rho * dot3(ck.e2, cj.n);
+      const double Rk = std::sqrt(a * a + b * b), mk = ck.h * g - cj.h;
+      M_[kj] = mk;
+      M_[jk] = cj.h * g - ck.h;
+      if (Rk <= kCoincident && std::fabs(mk) <= kCoincident && g > 0.0) {
+        coinc_[kj] = coinc_[jk] = 1;  // one circle, caps on the same side
         continue;
       }
       if (!(Rk > 0.0)) continue;
       const double ca = -mk / Rk;
       if (!(std::fabs(ca) < 1.0)) continue;
-      cross[kj] = cross[jk] = 1;
+      cross_[kj] = cross_[jk] = 1;
       const double sa = std::sqrt((1.0 - ca) * (1.0 + ca));
-      const double cp = A[kj] / Rk, sp = B[kj] / Rk;
+      const double cp = a / Rk, sp = b / Rk;
       // leave at phi + ac, enter at phi - ac (f_kj = M + R cos(t - phi) decreases through 0 at phi + ac)
       const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
       const double ce = cp * ca + sp * sa, se = sp * ca - cp * sa;
@@ -386,15 +423,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
         Pl[x] = ck.h * ck.n[x] + ck.rho * (cl * ck.e1[x] + sl * ck.e2[x]);
         Pe[x] = ck.h * ck.n[x] + ck.rho * (ce * ck.e1[x] + se * ck.e2[x]);
       }
-      const int pl = static_cast<int>(ang.size());
-      ang.push_back(NAN);  // pl: the leave point on k
-      ang.push_back(NAN);  // pl + 1: the enter point on k
-      ang.push_back(NAN);  // pl + 2: the first point seen on j
-      ang.push_back(NAN);  // pl + 3: the second point seen on j
       const double kl = diamond(cl, sl), ke = diamond(ce, se);
-      ev[k].push_back({kl, cl, sl, -1, pl});
-      ev[k].push_back({ke, ce, se, +1, pl + 1});
-      if (ke > kl) ++enter_gt_leave[k];
+      evk[nev_[k]++] = {kl, cl, sl, -1};
+      evk[nev_[k]++] = {ke, ce, se, +1};
+      if (ke > kl) ++egl[k];
       // on j: where k leaves cap j, j enters cap k, and vice versa
       double xl = dot3(Pl, cj.e1), yl = dot3(Pl, cj.e2), xe = dot3(Pe, cj.e1), ye = dot3(Pe, cj.e2);
       const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
@@ -407,9 +439,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
         ye /= ne;
       }
       const double jl = diamond(xl, yl), je = diamond(xe, ye);
-      ev[j].push_back({jl, xl, yl, +1, pl + 2});
-      ev[j].push_back({je, xe, ye, -1, pl + 3});
-      if (jl > je) ++enter_gt_leave[j];
+      Event* evj = ev.data() + static_cast<std::size_t>(j) * stride;
+      evj[nev_[j]++] = {jl, xl, yl, +1};
+      evj[nev_[j]++] = {je, xe, ye, -1};
+      if (jl > je) ++egl[j];
     }
   }
   // pole for the area form
@@ -417,7 +450,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
   choose_pole(K, q);
   double area_U = 0.0;
   bool in_U = false;
-  double J1[3] = {0, 0, 0}, J2s[9] = {0}, K3[9] = {0};
+  double J1[3] = {0, 0, 0}, J2c[3] = {0, 0, 0}, QS[9] = {0};
+  const double r6 = r / 6.0;
   for (int k = 0; k < K; ++k) {
     const Circle& ck = C[k];
     if (-dot3(q, ck.n) > ck.h) in_U = true;
@@ -426,15 +460,16 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
     for (int j = 0; j < K && !covered; ++j) {
       if (j == k) continue;
       const std::size_t kj = static_cast<std::size_t>(k) * K + j;
-      if (cross[kj]) continue;
-      if (coinc[kj])
+      if (cross_[kj]) continue;
+      if (coinc_[kj])
         covered = C[j].rank < ck.rank;  // of one circle, the lower-ranked cap bounds the region
       else
-        covered = M[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
+        covered = M_[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
     }
     if (covered) continue;
     // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
-    std::vector<Event>& E = ev[k];
+    Event* E = ev.data() + static_cast<std::size_t>(k) * stride;
+    const int P = nev_[k];
     double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, Iccc = 0, Isss = 0, Iccs = 0, Icss = 0;
     double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
     // pole in the circle's frame
@@ -445,38 +480,35 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
     const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
     const double sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
     const double cdl = qh > 0.0 ? qe1 / qh : 1.0, sdl = qh > 0.0 ? qe2 / qh : 0.0;
-    auto Gpart = [&](double c, double s) {
-      // G(t) - (t - dl)/2 = atan2((k - 1) sin(t - dl), (1 + k) + (1 - k) cos(t - dl))
+    // G(t) - (t - dl)/2 = atan2(Y, X), Y = (k - 1) sin(t - dl), X = (1 + k) + (1 - k) cos(t - dl)
+    auto GYX = [&](double c, double s, double& Y, double& X) {
       const double sp = s * cdl - c * sdl, cpp = c * cdl + s * sdl;
-      return std::atan2((kk - 1.0) * sp, (1.0 + kk) + (1.0 - kk) * cpp);
+      Y = (kk - 1.0) * sp;
+      X = (1.0 + kk) + (1.0 - kk) * cpp;
     };
-    if (E.empty()) {
+    if (P == 0) {
       Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
       dG = 0.0;
     } else {
-      std::sort(E.begin(), E.end(), [](const Event& x, const Event& y) {
+      small_sort(E, P, [](const Event& x, const Event& y) {
         return x.key < y.key || (x.key == y.key && x.type > y.type);
       });
-      int depth = enter_gt_leave[k];
-      const int P = static_cast<int>(E.size());
-      auto angle = [&](const Event& e) {
-        double& t = ang[e.pt];
-        if (std::isnan(t)) {
-          t = std::atan2(e.s, e.c);
-          if (t < 0.0) t += kTwoPi;
-        }
-        return t;
-      };
+      int depth = egl[k];
       for (int p = 0; p < P; ++p) {
         depth += E[p].type;
         if (depth != 0) continue;
+        const bool wrap = p + 1 >= P;
         const Event& e1 = E[p];
-        const Event& e2 = E[p + 1 < P ? p + 1 : 0];
-        const double t1 = angle(e1);
-        double t2 = angle(e2);
-        if (p + 1 >= P) t2 += kTwoPi;
+        const Event& e2 = E[wrap ? 0 : p + 1];
         const double c1 = e1.c, s1 = e1.s, c2 = e2.c, s2 = e2.s;
-        Dt += t2 - t1;
+        // arc length t2 - t1 in [0, 2 pi) from one atan2 of the two end points, its branch from the
+        // keys: a key difference of 1 is exactly a quarter turn (diamond), so a difference below 1
+        // is an arc below pi, above 3 one above pi (the ambiguous lengths near 0 and 2 pi are
+        // decided by the sorted order, as the depth walk is)
+        double L = std::atan2(c1 * s2 - s1 * c2, c1 * c2 + s1 * s2);
+        const double Lkey = (e2.key - e1.key) + (wrap ? 4.0 : 0.0);
+        if (Lkey > 3.0 || (L < 0.0 && Lkey >= 1.0)) L += kTwoPi;
+        Dt += L;
         Ic += s2 - s1;
         Is += c1 - c2;
         S2 += 2.0 * (s2 * c2 - s1 * c1);
@@ -486,7 +518,15 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
         Isss += (-c2 + c2c / 3.0) - (-c1 + c1c / 3.0);
         Iccs += -(c2c - c1c) / 3.0;
         Icss += (s2c - s1c) / 3.0;
-        dG += Gpart(c2, s2) - Gpart(c1, s1);
+        // atan2(Y2, X2) - atan2(Y1, X1) in one atan2: with X1, X2 > 0 (k > 0: X >= 2 min(1, k)) both
+        // lie in (-pi/2, pi/2), so their difference is in (-pi, pi) and needs no branch
+        double Y1, X1, Y2, X2;
+        GYX(c1, s1, Y1, X1);
+        GYX(c2, s2, Y2, X2);
+        if (X1 > 0.0 && X2 > 0.0)
+          dG += std::atan2(Y2 * X1 - X2 * Y1, X1 * X2 + Y1 * Y2);
+        else
+          dG += std::atan2(Y2, X2) - std::atan2(Y1, X1);
       }
       if (Dt == 0.0 && dG == 0.0) continue;
     }
@@ -494,65 +534,64 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, S
     // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
     area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
     // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
-    // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho).  Then
-    //   J1 = sum_p W1_p a_p E_p,   J2 = sum_pq W2_pq a_p b_q E_p (x) E_q,   J3 = sum_pqr W3_pqr a_p b_q b_r E_p E_q E_r,
+    // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho), W_pq.. = int w_p w_q .. dt
+    // over the exposed arcs.  Then
+    //   J1 = sum_p W_p a_p E_p,   J2 + J2^T = sum_xy W_xy s_xy E_x (x) E_y,  s_xy = a_x b_y + a_y b_x,
     // and m3 enters only contracted with the sphere centre c (local coordinates cl):
-    //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,
-    //   Lk_xy = a_x tc_xy + a_y tc_yx + b_x b_y sum_p a_p cl_p W3_pxy,  tc_pq = b_q sum_r W3_pqr b_r cl_r.
-    const double W1[3] = {Dt, Ic, Is};
-    const double W2[3][3] = {{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}};
-    const double W3[3][3][3] = {{{Dt, Ic, Is}, {Ic, Icc, Ics}, {Is, Ics, Iss}},
-                                {{Ic, Icc, Ics}, {Icc, Iccc, Iccs}, {Ics, Iccs, Icss}},
-                                {{Is, Ics, Iss}, {Ics, Iccs, Icss}, {Iss, Icss, Isss}}};
-    const double av[3] = {-(ck.rho * ck.rho), ck.h * ck.rho, ck.h * ck.rho};
-    const double bv[3] = {ck.h, ck.rho, ck.rho};
-    const double* Ef[3] = {ck.n, ck.e1, ck.e2};
-    const double cl[3] = {dot3(ck.n, centre), dot3(ck.e1, centre), dot3(ck.e2, centre)};
-    double bc[3], ac[3];
-    for (int r = 0; r < 3; ++r) {
-      bc[r] = bv[r] * cl[r];
-      ac[r] = av[r] * cl[r];
+    //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,  Lk_xy = s_xy T_xy + b_x b_y U_xy,
+    //   T_xy = sum_r W_xyr b_r cl_r = h Z + rho V,  U_xy = sum_p a_p cl_p W_pxy = -rho^2 Z + h rho V,
+    //   Z_xy = cl_0 W_xy,  V_xy = cl_1 W_xy1 + cl_2 W_xy2.
+    // Only r m2 + m3c and m2 c are needed (add_from_surface), so one symmetric matrix
+    // Lc = r/6 (J2 + J2^T) + Lk/12 (local) is rotated per circle.
+    const double h = ck.h, rho = ck.rho;
+    const double* n = ck.n;
+    const double* e1 = ck.e1;
+    const double* e2 = ck.e2;
+    const double cl0 = dot3(n, centre), cl1 = dot3(e1, centre), cl2 = dot3(e2, centre);
+    // the six entries xy = 00, 01, 02, 11, 12, 22
+    const double W2[6] = {Dt, Ic, Is, Icc, Ics, Iss};
+    const double W31[6] = {Ic, Icc, Ics, Iccc, Iccs, Icss};  // W_xy1
+    const double W32[6] = {Is, Ics, Iss, Iccs, Icss, Isss};  // W_xy2
+    const double s01 = rho * (h * h - rho * rho), s11 = 2.0 * h * rho * rho;
+    const double sv[6] = {-2.0 * rho * rho * h, s01, s01, s11, s11, s11};
+    const double hr = h * rho, rr = rho * rho;
+    const double bb[6] = {h * h, hr, hr, rr, rr, rr};
+    double L2[6], Lc[6];
+    for (int e = 0; e < 6; ++e) {
+      const double Z = cl0 * W2[e], V = cl1 * W31[e] + cl2 * W32[e];
+      L2[e] = W2[e] * sv[e];
+      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) / 12.0;
     }
-    double tc[3][3];
-    for (int p = 0; p < 3; ++p)
-      for (int qq = 0; qq < 3; ++qq) tc[p][qq] = bv[qq] * (W3[p][qq][0] * bc[0] + W3[p][qq][1] * bc[1] + W3[p][qq][2] * bc[2]);
-    double L2[3][3], Lk[3][3];
-    for (int x = 0; x < 3; ++x)
-      for (int y = 0; y < 3; ++y) {
-        L2[x][y] = W2[x][y] * (av[x] * bv[y] + av[y] * bv[x]);  // J2 + J2^T (W2 is symmetric)
-        Lk[x][y] = av[x] * tc[x][y] + av[y] * tc[y][x] +
-                   bv[x] * bv[y] * (ac[0] * W3[0][x][y] + ac[1] * W3[1][x][y] + ac[2] * W3[2][x][y]);
-      }
-    for (int p = 0; p < 3; ++p)
-      for (int x = 0; x < 3; ++x) J1[x] += W1[p] * av[p] * Ef[p][x];
-    // rotate the two symmetric local matrices to the sphere's axes: M = sum_pq L_pq E_p E_q^T
-    double RS[3][3], RK[3][3];
-    for (int p = 0; p < 3; ++p)
-      for (int j = 0; j < 3; ++j) {
-        RS[p][j] = L2[p][0] * Ef[0][j] + L2[p][1] * Ef[1][j] + L2[p][2] * Ef[2][j];
-        RK[p][j] = Lk[p][0] * Ef[0][j] + Lk[p][1] * Ef[1][j] + Lk[p][2] * Ef[2][j];
-      }
+    // (J2 + J2^T) c = sum_x v2_x E_x, v2 = L2 cl;  J1
+    const double v20 = L2[0] * cl0 + L2[1] * cl1 + L2[2] * cl2;
+    const double v21 = L2[1] * cl0 + L2[3] * cl1 + L2[4] * cl2;
+    const double v22 = L2[2] * cl0 + L2[4] * cl1 + L2[5] * cl2;
+    const double j0 = -(rr * Dt), j1 = hr * Ic, j2 = hr * Is;
+    for (int x = 0; x < 3; ++x) {
+      J1[x] += j0 * n[x] + j1 * e1[x] + j2 * e2[x];
+      J2c[x] += v20 * n[x] + v21 * e1[x] + v22 * e2[x];
+    }
+    // rotate Lc to the sphere's axes: sum_pq Lc_pq E_p E_q^T (upper triangle)
+    double RC0[3], RC1[3], RC2[3];
+    for (int j = 0; j < 3; ++j) {
+      RC0[j] = Lc[0] * n[j] + Lc[1] * e1[j] + Lc[2] * e2[j];
+      RC1[j] = Lc[1] * n[j] + Lc[3] * e1[j] + Lc[4] * e2[j];
+      RC2[j] = Lc[2] * n[j] + Lc[4] * e1[j] + Lc[5] * e2[j];
+    }
     for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j) {
-        J2s[3 * i + j] += Ef[0][i] * RS[0][j] + Ef[1][i] * RS[1][j] + Ef[2][i] * RS[2][j];
-        K3[3 * i + j] += Ef[0][i] * RK[0][j] + Ef[1][i] * RK[1][j] + Ef[2][i] * RK[2][j];
-      }
+      for (int j = i; j < 3; ++j) QS[3 * i + j] += n[i] * RC0[j] + e1[i] * RC1[j] + e2[i] * RC2[j];
   }
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < i; ++j) {
-      J2s[3 * i + j] = J2s[3 * j + i];
-      K3[3 * i + j] = K3[3 * j + i];
-    }
   const double a = kFourPi - (area_U + (in_U ? kFourPi : 0.0));
   out.a = a;
   for (int x = 0; x < 3; ++x) out.m1[x] = 0.5 * J1[x];
-  for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y) out.m2[3 * x + y] = (x == y ? a / 3.0 : 0.0) + J2s[3 * x + y] / 6.0;
-  // m3 c = [sym(J3) + T(J1)] c / 12, T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
+  // m2 c = a c / 3 + (J2 + J2^T) c / 6;  r m2 + m3c with m3 c = [sym(J3) + T(J1)] c / 12,
+  // T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
+  for (int x = 0; x < 3; ++x) out.m2c[x] = a / 3.0 * centre[x] + J2c[x] / 6.0;
   const double J1c = dot3(J1, centre);
   for (int x = 0; x < 3; ++x)
-    for (int y = 0; y < 3; ++y)
-      out.m3c[3 * x + y] = (K3[3 * x + y] + (x == y ? J1c : 0.0) + centre[x] * J1[y] + centre[y] * J1[x]) / 12.0;
+    for (int y = x; y < 3; ++y)
+      out.Qs[3 * x + y] = out.Qs[3 * y + x] = QS[3 * x + y] + (x == y ? r * a / 3.0 + J1c / 12.0 : 0.0) +
+                                              (centre[x] * J1[y] + centre[y] * J1[x]) / 12.0;
 }
 
 // ------------------------------------------------------------------ the exact method
@@ -570,7 +609,7 @@ struct ExactWorkspace {
 // Caps of every sphere (sorted by owner, then other) and the buried spheres.
 inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
   w.search.overlapping(c, r, n, w.pairs);
-  w.buried.assign(n, 0);
+  signed char* buried = filled(w.buried, n, static_cast<signed char>(0));
   // containment, scale-aware: a is inside b when its protrusion (r_a - r_b) + D is at most
   // tau min(r_a, r_b).  Of two spheres inside each other (near-identical), exactly one goes: the
   // later in the order (larger radius first, then lower index), so one of each group stays.
@@ -580,13 +619,13 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
     const bool a_in_b = (ra - rb) + p.D <= tol;
     const bool b_in_a = (rb - ra) + p.D <= tol;
     const bool a_first = ra >= rb;
-    if (a_in_b && !(b_in_a && a_first)) w.buried[p.a] = 1;
-    if (b_in_a && !(a_in_b && !a_first)) w.buried[p.b] = 1;
+    if (a_in_b && !(b_in_a && a_first)) buried[p.a] = 1;
+    if (b_in_a && !(a_in_b && !a_first)) buried[p.b] = 1;
   }
   w.caps.clear();
   for (const Pair& p : w.pairs) {
     const double ra = r[p.a], rb = r[p.b], D = p.D;
-    if (w.buried[p.a] || w.buried[p.b]) continue;  // (every containment pair buried one of its spheres)
+    if (buried[p.a] || buried[p.b]) continue;  // (every containment pair buried one of its spheres)
     const double delta = ra + rb - D;
     const double omh_a = delta * ((rb - ra) + D) / (2.0 * ra * D);
     const double oph_a = ((ra - rb) + D) * (ra + D + rb) / (2.0 * ra * D);
@@ -597,35 +636,34 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
     const double rho_a = std::sqrt(std::max(omh_a * oph_a, 0.0)), rho_b = std::sqrt(std::max(omh_b * oph_b, 0.0));
     if (std::max(rho_a, rho_b) < kRhoTangent) {
       // near-tangent pair: tangent.  Externally: no caps; internally: the inner sphere is buried
-      if (h_a < 0.0) w.buried[p.a] = 1;
-      if (h_b < 0.0) w.buried[p.b] = 1;
+      if (h_a < 0.0) buried[p.a] = 1;
+      if (h_b < 0.0) buried[p.b] = 1;
       continue;
     }
-    Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a, 0.0};
-    Cap cb{p.b, p.a, {-p.e[0], -p.e[1], -p.e[2]}, h_b, rho_b, 0.0};
+    Cap ca{p.a, p.b, {p.e[0], p.e[1], p.e[2]}, h_a, rho_a};
+    Cap cb{p.b, p.a, {-p.e[0], -p.e[1], -p.e[2]}, h_b, rho_b};
     w.caps.push_back(ca);
     w.caps.push_back(cb);
   }
   // drop caps of or by buried spheres; group by owner, sort by other
-  w.count.assign(n, 0);
+  int* count = filled(w.count, n, 0);
   std::size_t kept = 0;
   for (const Cap& cp : w.caps)
-    if (!w.buried[cp.owner] && !w.buried[cp.other]) {
+    if (!buried[cp.owner] && !buried[cp.other]) {
       w.caps[kept++] = cp;
-      ++w.count[cp.owner];
+      ++count[cp.owner];
     }
   w.caps.resize(kept);
-  w.start.assign(n + 1, 0);
-  for (int i = 0; i < n; ++i) w.start[i + 1] = w.start[i] + w.count[i];
-  w.sorted.resize(kept);
-  std::vector<int>& fill = w.count;  // reuse as fill pointer
-  for (int i = 0; i < n; ++i) fill[i] = w.start[i];
-  for (const Cap& cp : w.caps) w.sorted[fill[cp.owner]++] = cp;
-  for (int i = 0; i < n; ++i) {
-    Cap* b = w.sorted.data() + w.start[i];
-    Cap* e = w.sorted.data() + w.start[i + 1];
-    if (e - b > 1) std::sort(b, e, [](const Cap& x, const Cap& y) { return x.other < y.other; });
-  }
+  int* start = filled(w.start, n + 1, 0);
+  for (int i = 0; i < n; ++i) start[i + 1] = start[i] + count[i];
+  if (w.sorted.size() < kept) w.sorted.resize(kept);
+  Cap* sorted = w.sorted.data();
+  int* fill = count;  // reuse as fill pointer
+  for (int i = 0; i < n; ++i) fill[i] = start[i];
+  for (const Cap& cp : w.caps) sorted[fill[cp.owner]++] = cp;
+  for (int i = 0; i < n; ++i)
+    if (start[i + 1] - start[i] > 1)
+      small_sort(sorted + start[i], start[i + 1] - start[i], [](const Cap& x, const Cap& y) { return x.other < y.other; });
 }
 
 // The caps of one sphere that matter (docs/exact_method.md, section 2a), compacted in place:
@@ -634,16 +672,17 @@ inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& 
 //    oppositely oriented ones (complementary caps) cover the whole sphere: returns -1 (the sphere
 //    contributes nothing);
 // 2. of the rest, cap j lying in cap k (angle(n_j, n_k) + alpha_j <= alpha_k) is dropped.
-// Returns the new K (or -1).  Sets alpha of the kept caps.
+// Returns the new K (or -1).
 inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
   if (K < 2) return K;  // one cap: closed form (single_cap), no angular radius needed
-  w.alpha.resize(K);
-  w.drop.assign(K, 0);
-  std::vector<signed char>& coinc = w.coinc;
-  coinc.assign(static_cast<std::size_t>(K) * K, 0);
-  for (int k = 0; k < K; ++k) {
-    w.alpha[k] = caps[k].alpha = std::atan2(caps[k].rho, caps[k].h);
-  }
+  double* alpha_ = filled(w.alpha, K, static_cast<double>(NAN));  // angular radii atan2(rho, h), when first needed
+  signed char* drop = filled(w.drop, K, static_cast<signed char>(0));
+  signed char* coinc = filled(w.coinc, static_cast<std::size_t>(K) * K, static_cast<signed char>(0));
+  auto alpha = [&](int k) {
+    double& a = alpha_[k];
+    if (std::isnan(a)) a = std::atan2(caps[k].rho, caps[k].h);
+    return a;
+  };
   for (int k = 0; k < K; ++k)
     for (int j = k + 1; j < K; ++j) {
       const double* a = caps[k].n;
@@ -660,33 +699,34 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
         coinc[static_cast<std::size_t>(k) * K + j] = coinc[static_cast<std::size_t>(j) * K + k] = 1;
         // the same cap twice: keep the lower-ranked
         if (caps[k].other < caps[j].other)
-          w.drop[j] = 1;
+          drop[j] = 1;
         else
-          w.drop[k] = 1;
+          drop[k] = 1;
       }
     }
   auto inside = [&](int j, int k) {  // cap j within cap k
-    const double room = w.alpha[k] - w.alpha[j];
-    if (room < 0.0) return false;
     const double d = dot3(caps[j].n, caps[k].n);
-    // theta <= room needs cos(theta) >= cos(alpha_k - alpha_j) = h_k h_j + rho_k rho_j: clearly apart, skip the atan2
+    // theta <= alpha_k - alpha_j needs cos(theta) >= cos(alpha_k - alpha_j) = h_k h_j + rho_k rho_j:
+    // clearly apart, skip the atan2s
     if (d < caps[k].h * caps[j].h + caps[k].rho * caps[j].rho - 1e-9) return false;
+    if (alpha(k) - alpha(j) < 0.0) return false;
     const double* a = caps[j].n;
     const double* b = caps[k].n;
     const double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
     const double theta = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), d);
-    return theta + w.alpha[j] <= w.alpha[k];
+    return theta + alpha(j) <= alpha(k);
   };
   // a cap dropped as a coincident copy is no container (its kept twin is): remember those flags
-  w.copy.assign(w.drop.begin(), w.drop.end());
+  signed char* copy = filled(w.copy, K, static_cast<signed char>(0));
+  for (int k = 0; k < K; ++k) copy[k] = drop[k];
   for (int j = 0; j < K; ++j)
-    for (int k = 0; k < K && !w.drop[j]; ++k) {
-      if (k == j || w.copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
-      if (inside(j, k)) w.drop[j] = 1;
+    for (int k = 0; k < K && !drop[j]; ++k) {
+      if (k == j || copy[k] || coinc[static_cast<std::size_t>(j) * K + k]) continue;
+      if (inside(j, k)) drop[j] = 1;
     }
   int m = 0;
   for (int k = 0; k < K; ++k)
-    if (!w.drop[k]) caps[m++] = caps[k];
+    if (!drop[k]) caps[m++] = caps[k];
   return m;
 }
 
@@ -705,9 +745,9 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
     K = prune_caps(caps, K, w);
     if (K < 0) continue;  // covered entirely by complementary caps
     if (K == 1)
-      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, s);
+      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, r[i], s);
     else
-      w.arr.compute(caps, K, c + 3 * i, s);
+      w.arr.compute(caps, K, c + 3 * i, r[i], s);
     add_from_surface(c + 3 * i, r[i], s, out);
   }
 }
@@ -787,6 +827,7 @@ struct PairwiseWorkspace {
   std::vector<int> adj_start, adj;  // CSR adjacency: neighbours of each sphere
   std::vector<int> pair_of;         // pair index of each adjacency entry
   std::vector<int> mark;            // mark[k] = pair index (j,k) + 1 while scanning j
+  std::vector<int> fill;            // fill pointers while building adj
 };
 
 // Returns false (and fills t) if three spheres share a region.
@@ -802,7 +843,8 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
   for (int i = 0; i < n; ++i) w.adj_start[i + 1] += w.adj_start[i];
   w.adj.resize(2 * P.size());
   w.pair_of.resize(2 * P.size());
-  std::vector<int> fill(w.adj_start.begin(), w.adj_start.end() - 1);
+  int* fill = filled(w.fill, n, 0);
+  for (int i = 0; i < n; ++i) fill[i] = w.adj_start[i];
   for (int q = 0; q < static_cast<int>(P.size()); ++q) {
     const Pair& p = P[q];
     w.adj[fill[p.a]] = p.b;
@@ -841,16 +883,23 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
 inline bool pairwise_moments(const double* c, const double* r, int n, bool check, Moments& out, PairwiseWorkspace& w,
                              TripleOverlap& t) {
   sum_moments(c, r, n, out);
-  w.search.overlapping(c, r, n, w.pairs);
-  if (check && !check_no_triple_overlap(c, r, n, w, t)) return false;
-  for (const Pair& p : w.pairs) {
+  auto subtract_lens = [&](const Pair& p) {
     double Vl, pos[3], st, sax;
     lens_moments(r[p.a], r[p.b], c + 3 * p.a, c + 3 * p.b, p.D, p.e, Vl, pos, st, sax);
     out.V -= Vl;
     for (int x = 0; x < 3; ++x) out.S[x] -= Vl * pos[x];
     for (int x = 0; x < 3; ++x)
       for (int y = 0; y < 3; ++y) out.Q[3 * x + y] -= Vl * pos[x] * pos[y] + sax * p.e[x] * p.e[y] + (x == y ? st : 0.0);
+  };
+  t = TripleOverlap();
+  if (n == 2) {  // one pair at most, no triple: no search
+    Pair p;
+    if (PairSearch::test(c, r, 0, 1, p)) subtract_lens(p);
+    return true;
   }
+  w.search.overlapping(c, r, n, w.pairs);
+  if (check && !check_no_triple_overlap(c, r, n, w, t)) return false;
+  for (const Pair& p : w.pairs) subtract_lens(p);
   return true;
 }
 
@@ -961,10 +1010,11 @@ struct Result {
 // axis: if not null, the body is symmetric about this unit axis (principal axes in closed form)
 inline Status finish(const Moments& m, const double* origin, double density, bool principal, Result& res,
                      const double* axis = nullptr) {
-  bool finite = std::isfinite(m.V);
-  for (int x = 0; x < 3; ++x) finite = finite && std::isfinite(m.S[x]);
-  for (int x = 0; x < 9; ++x) finite = finite && std::isfinite(m.Q[x]) && std::isfinite(m.Q[x] * density);
-  if (!finite) return kOverflow;
+  // all finite, Q * density too: x * 0 is NaN exactly for x = +-inf or NaN, and a sum with a NaN is NaN
+  double z = m.V * 0.0;
+  for (int x = 0; x < 3; ++x) z += m.S[x] * 0.0;
+  for (int x = 0; x < 9; ++x) z += (m.Q[x] * density) * 0.0;
+  if (!(z == 0.0)) return kOverflow;
   if (!(m.V > 0.0)) return kNonPositiveVolume;
   double d[3], Qc[9];
   for (int x = 0; x < 3; ++x) d[x] = m.S[x] / m.V;
@@ -978,8 +1028,9 @@ inline Status finish(const Moments& m, const double* origin, double density, boo
       if (x == y) I += tr;
       res.inertia[3 * x + y] = I;
     }
-  for (int x = 0; x < 9; ++x)
-    if (!std::isfinite(res.inertia[x])) return kOverflow;
+  double zi = 0.0;
+  for (int x = 0; x < 9; ++x) zi += res.inertia[x] * 0.0;
+  if (!(zi == 0.0)) return kOverflow;
   for (int x = 0; x < 3; ++x) res.com[x] = origin[x] + d[x];
   res.mass = density * m.V;
   res.volume = m.V;
@@ -1014,6 +1065,59 @@ inline bool clump_origin(const double* c, const double* r, int n, double* origin
 
 enum Method : int { kExact = 0, kPairwise = 1, kSum = 2 };
 
+// Two spheres, pairwise (with_lens) or summed: the body is symmetric about the line of centres e, so
+// its central second moments are C_ax e e^T + C_t (1 - e e^T) and reduce to scalars along that line,
+// taken about the centre of mass (closed form; no 3x3 accumulation, no eigen-solver).  The same
+// lens (lens_moments) and overlap test (D < r_a + r_b) as pairwise_moments.
+inline Status dimer_axisymmetric(bool with_lens, const double* c, const double* r, double density, bool principal,
+                                 Result& res) {
+  for (int i = 0; i < 2; ++i) {
+    if (!(r[i] > 0.0) || !std::isfinite(r[i])) return kBadInput;
+    for (int x = 0; x < 3; ++x)
+      if (!std::isfinite(c[3 * i + x])) return kBadInput;
+  }
+  const double dx = c[3] - c[0], dy = c[4] - c[1], dz = c[5] - c[2];
+  const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+  double e[3] = {0.0, 0.0, 1.0};
+  if (D > 0.0) {
+    e[0] = dx / D;
+    e[1] = dy / D;
+    e[2] = dz / D;
+  }
+  const double ra = r[0], rb = r[1];
+  const double Va = (4.0 / 3.0) * kPi * ra * ra * ra, Vb = (4.0 / 3.0) * kPi * rb * rb * rb;
+  const double ia = Va * ra * ra / 5.0, ib = Vb * rb * rb / 5.0;  // a ball's own second moment, every direction
+  // parts along the axis from c_a: ball a at 0, ball b at D, minus the lens at sl
+  double V = Va + Vb, S = Vb * D, Vl = 0.0, sl = 0.0, lt = 0.0, lax = 0.0;
+  if (with_lens && D < ra + rb) {
+    const double o[3] = {0.0, 0.0, 0.0}, cb[3] = {D, 0.0, 0.0}, ex[3] = {1.0, 0.0, 0.0};
+    double pos[3], sig_t, sig_ax;
+    lens_moments(ra, rb, o, cb, D, ex, Vl, pos, sig_t, sig_ax);
+    sl = pos[0];
+    lt = sig_t;
+    lax = sig_t + sig_ax;
+    V -= Vl;
+    S -= Vl * sl;
+  }
+  const double s = S / V;  // centre of mass along the axis
+  const double C_t = ia + ib - lt;
+  const double C_ax = (ia + Va * s * s) + (ib + Vb * (D - s) * (D - s)) - (lax + Vl * (sl - s) * (sl - s));
+  const double I_ax = 2.0 * C_t * density, I_perp = (C_ax + C_t) * density;
+  const double diff = I_ax - I_perp;
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y) res.inertia[3 * x + y] = (x == y ? I_perp : 0.0) + diff * e[x] * e[y];
+  for (int x = 0; x < 3; ++x) res.com[x] = c[x] + s * e[x];
+  res.mass = density * V;
+  res.volume = V;
+  double z = V * 0.0 + res.mass * 0.0 + (C_ax * density) * 0.0 + I_ax * 0.0 + I_perp * 0.0;
+  for (int x = 0; x < 3; ++x) z += res.com[x] * 0.0;
+  for (int x = 0; x < 9; ++x) z += res.inertia[x] * 0.0;
+  if (!(z == 0.0)) return kOverflow;
+  if (!(V > 0.0)) return kNonPositiveVolume;
+  if (principal) eigh3_axisymmetric(res.inertia, e, res.moments, res.axes);
+  return kOk;
+}
+
 // One clump from world coordinates to mass properties.
 struct Engine {
   ExactWorkspace ex;
@@ -1025,6 +1129,7 @@ struct Engine {
 
   Status clump(Method method, const double* c, const double* r, int n, double density, bool principal, Result& res,
                bool check = true) {
+    if (n == 2 && method != kExact) return dimer_axisymmetric(method == kPairwise, c, r, density, principal, res);
     rel.resize(3 * static_cast<std::size_t>(n));
     if (n <= 0 || !clump_origin(c, r, n, origin, rel.data())) return kBadInput;
     switch (method) {
