@@ -1,4 +1,4 @@
-"""The LIGGGHTS exports checked inside LIGGGHTS itself (Debian 12's liggghts 3.8.0).
+"""The LIGGGHTS exports checked inside LIGGGHTS itself (Debian's liggghts 3.8.0).
 
 Read-back: the body's mass from ``compute ke/multisphere`` with a known velocity (ke = m v^2/2)
 and its inertia tensor from ``compute erotate/multisphere`` with six known angular velocities
@@ -13,12 +13,16 @@ and its inertia tensor from ``compute erotate/multisphere`` with six known angul
   uses our mass and inertia tensor (1e-12 relative), and our centre of mass: the member
   velocities v = w x (x - xcm) of spinning bodies locate the point it turns about, which is
   where the sphere file's origin went;
-* a free spin: member positions after 1 s follow the exact inertia (scipy solve_ivp) and
-  are far from the summed-sphere prediction.
+* a free spin: the inserted body spins at the requested omega (member velocities at step 1),
+  and member positions after 1 s follow the exact inertia (scipy solve_ivp) and are far from
+  the summed-sphere prediction.
+
+Debian 12's liggghts 3.8.0+repack1-9 and Debian 13's 3.8.0+repack1-13 (the Debian 13 root)
+give bit-identical dumps here; numbers go into the inputs as Python floats (numpy >= 2 writes
+``np.float64(2.0)`` for repr of a numpy scalar, which LIGGGHTS' atof() reads as 0).
 """
 from __future__ import annotations
 
-import os
 import re
 
 import numpy as np
@@ -173,18 +177,18 @@ def test_liggghts_monte_carlo_agrees_with_exact_for_a_nonoverlapping_clump(tmp_p
     assert abs(I[1, 2] - mp.inertia[1, 2]) > 3 * tol
 
 
-@pytest.mark.skipif(bool(os.environ.get("CLUMPPROPS_IN_DEBIAN13")),
-                    reason="verified with Debian 12's LIGGGHTS 3.8.0; in the Debian 13 root (liggghts "
-                           "3.8.0+repack1-13) the clump's members end ~0.96 of its size from both predictions: "
-                           "open, not understood yet")
 def test_liggghts_free_spin_follows_the_exact_inertia(tmp_path):
     c, mp = _export(tmp_path, ASYM_C, ASYM_R, "asym")
     summed = mass_properties(c.centers, c.radii, density=RHO, method="sum")
     w0 = np.array([2.0, -1.0, 3.0])
     dt, nsteps = 1e-5, 100000
-    text = PRE.format(dt=dt, template=_template_lines(tmp_path, "asym", ntry=10000), v="0 0 0", w=" ".join(map(repr, w0)))
+    # Python floats: under numpy >= 2 repr(np.float64(2.0)) is "np.float64(2.0)", which LIGGGHTS'
+    # fix insert reads with atof() as 0 without a word (a body inserted at rest)
+    omega = " ".join(map(repr, w0.tolist()))
+    text = PRE.format(dt=dt, template=_template_lines(tmp_path, "asym", ntry=10000), v="0 0 0", w=omega)
     text += ("thermo 10000\nrun 1\n"  # inserted at step 1
-             "dump a all custom 1 atoms0.dump id x y z\ndump_modify a format \"%d %.17g %.17g %.17g\" sort id\n"
+             "dump a all custom 1 atoms0.dump id x y z vx vy vz\n"
+             "dump_modify a format \"%d %.17g %.17g %.17g %.17g %.17g %.17g\" sort id\n"
              "run 0\nundump a\n"
              f"dump b all custom {nsteps} atoms1.dump id x y z\ndump_modify b format \"%d %.17g %.17g %.17g\" sort id\n"
              f"run {nsteps - 1}\n")
@@ -193,7 +197,7 @@ def test_liggghts_free_spin_follows_the_exact_inertia(tmp_path):
     f0, f1 = read_dump(tmp_path / "atoms0.dump"), read_dump(tmp_path / "atoms1.dump")
     steps = [min(f0), max(f1)]
     assert steps == [1, nsteps]
-    x0 = f0[1][1][:, 1:4]
+    x0, v0 = f0[1][1][:, 1:4], f0[1][1][:, 4:7]
     x1 = f1[nsteps][1][:, 1:4]
     rel0 = c.centers - mp.center_of_mass  # the exported sphere file
     # the body's orientation at step 1 from the inserted positions (Kabsch): LIGGGHTS inserts in
@@ -206,6 +210,10 @@ def test_liggghts_free_spin_follows_the_exact_inertia(tmp_path):
     com = x0.mean(0) - R0 @ rel0.mean(0)  # where the file's origin (our centre of mass) went
     I0 = R0 @ mp.inertia @ R0.T
     w_ins = w0  # LIGGGHTS sets omega in the space frame
+    # the body spins as asked: member velocities at step 1 are w0 x (x - xcm), v_cm = 0
+    v_exp = np.cross(w_ins, x0 - com)
+    assert np.max(np.abs(v0 - v_exp)) < 1e-12 * np.max(np.abs(v_exp)), \
+        f"inserted spin: member velocities {v0.tolist()} are not w0 x (x - xcm) (omega words: {omega!r})"
     L = I0 @ w_ins
     t = dt * (steps[-1] - steps[0])
     R = rotation_after(I0, L, t)
