@@ -66,11 +66,11 @@ def header_lines(engine: str, density: float, method: str, source: str = "", sca
     out = [
         f"written by clumpprops {__version__} for {engine}",
         "units: SI (lengths m, mass kg, inertia kg m^2, density kg/m^3)",
-        f"density {density!r} kg/m^3, method {method}"
+        f"density {fnum(density)} kg/m^3, method {method}"
         + (" (exact union of the spheres)" if method == "exact" else ""),
     ]
     if source:
-        out.append(f"source: {source}" + (f", scale {scale!r}" if scale != 1.0 else ""))
+        out.append(f"source: {source}" + (f", scale {fnum(scale)}" if scale != 1.0 else ""))
     out.extend(extra)
     return out
 
