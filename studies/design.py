@@ -7,7 +7,9 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
 * **The analysis window.**  ``analysis.t_eq`` in seconds, or ``"auto"``: the equilibration cut
   detected from the record's rotational share of kinetic energy
   (:func:`studies.estimators.detect_equilibration`, equipartition 2/5 for linear clumps, 1/2
-  for others), rounded up to the next stored window start (``analysis.cuts``).
+  for others), rounded up to the next stored window start (``analysis.cuts``).  Runs started
+  in equilibrium (``gas.start = "equipartition"``) and sphere gases have no transient: "auto"
+  uses their whole run (the first stored window).
 * **D of one run**: Green-Kubo on the record's velocity autocorrelation
   (:func:`studies.estimators.diffusion_green_kubo`, e-folding truncation plus a fitted
   exponential tail; validated on Ornstein-Uhlenbeck walkers in benchmarks/bench_estimator.py),
@@ -51,6 +53,12 @@ def analysis_cut(rec, t_eq):
         return float(t_eq), None
     if rec["rot_dof"] == 0:                 # spheres: no rotation, equilibrium from the start
         return cuts[0], 0.0
+    if rec.get("params", {}).get("gas", {}).get("start") == "equipartition":
+        # Started in equilibrium (Maxwellian velocities, spins at equipartition, uniform positions
+        # at phi << 1): there is no transient to cut, so the whole run is used.  The detector is
+        # not consulted: its false-alarm rate (<= alpha = 5 % per run, Bonferroni over blocks)
+        # would drop data from some runs at random, a data-dependent choice for no gain.
+        return cuts[0], None
     e = rec["energy"]
     tr, ro = np.asarray(e["e_trans"]), np.asarray(e["e_rot"])
     det = est.detect_equilibration(np.asarray(e["t"]), ro / (tr + ro), equipartition_share(rec))

@@ -50,9 +50,11 @@ def write_record(rdir, run, frames, v0, cuts, max_lag, rot_dof=2, wall_s=600.0):
     return rec
 
 
-def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None):
+def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None):
     with open(os.path.join(S.SPEC_DIR, "dimer_paired.toml"), "rb") as f:
         r = tomllib.load(f)
+    if start is not None:
+        r["gas"]["start"] = start
     r["study"]["results"] = str(tmp / "results")
     if budget is not None:
         r["study"]["budget_cpu_hours"] = budget
@@ -109,7 +111,7 @@ def test_auto_cut_detected_from_the_rotational_share(tmp_path):
     the detected cut must lie where the share is within its fluctuation of 0.4, and the analysis
     window is the next stored one."""
     sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], t_eq="auto",
-                  cuts=(0.0, 50.0, 125.0, 200.0))
+                  cuts=(0.0, 50.0, 125.0, 200.0), start="zero_spin")
     rng = np.random.default_rng(3)
     noise = lambda t: 0.004 * np.sin(t / 3.0) + 0.004 * rng.standard_normal(len(t))   # noqa: E731
     fr, v0 = frames_of(rng, 64, 600.0, 0.25, share=lambda t: 0.4 - 0.36 * np.exp(-t / 28.4) + noise(t))
@@ -125,6 +127,32 @@ def test_auto_cut_detected_from_the_rotational_share(tmp_path):
     rec2.update(rot_dof=2, name="never")
     with pytest.raises(ValueError, match="no equilibration cut|after every stored window"):
         design.analysis_cut(rec2, "auto")
+
+
+def test_auto_cut_uses_the_whole_run_of_an_equilibrium_start(tmp_path):
+    """An equipartition start has no transient: "auto" takes the first window whatever the
+    detector would say.  The series below has one late excursion beyond the detector's band
+    (the kind of false alarm a 5 % test gives one run in twenty): with the zero-spin start the
+    detector cuts after it (or finds no stored window), with the equilibrium start it is ignored."""
+    cuts = (0.0, 50.0, 125.0)
+    rng = np.random.default_rng(5)
+
+    def share(t):
+        y = 0.4 + 0.004 * rng.standard_normal(len(t))
+        return np.where((t > 400) & (t < 425), 0.45, y)
+
+    fr, v0 = frames_of(rng, 64, 1000.0, 0.25, share=share)
+    for start, expect in (("equipartition", (0.0, None)), ("zero_spin", None)):
+        sp = spec_for(tmp_path / start, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], t_eq="auto",
+                      cuts=cuts, start=start)
+        run = S.runs(sp)[0]
+        rec = write_record(engine.results_dir(sp), run, fr, v0, list(cuts), 100.0)
+        if expect is not None:
+            assert design.analysis_cut(rec, "auto") == expect
+            assert design.run_d(rec, "auto")["t_cut"] == 0.0
+        else:
+            with pytest.raises(ValueError, match="after every stored window"):
+                design.analysis_cut(rec, "auto")
 
 
 def _sequential(tmp_path, noise_sd, budget=None, max_seeds=20):
