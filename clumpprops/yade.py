@@ -37,7 +37,7 @@ update recompute a clump with whatever members it then has, so the correction wo
 :func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
 operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
 are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
-correction is recorded in ``O.tags["clumpprops.corrections"]`` with a fingerprint of its spheres,
+correction is recorded in ``O.tags["clumpprops.corrections*"]`` (a header and chunks of entries) with a fingerprint of its spheres,
 and :func:`check` verifies the whole scene.
 
 Nothing here is imported by ``import clumpprops``; YADE itself is imported inside
@@ -1585,7 +1585,7 @@ def check(rtol=1e-9, raise_on_error=False):
     """Verify every clump of the scene against its exact properties; report stale or orphaned corrections.
 
     For each corrected clump: the correction is the one recorded in the registry
-    (``O.tags["clumpprops.corrections"]``, saved with the scene), the sphere set has the recorded
+    (``O.tags["clumpprops.corrections*"]``, saved with the scene), the sphere set has the recorded
     fingerprint (ids, radii, densities), and YADE's mass, centre of mass and inertia tensor equal
     the library's for the spheres where they are now (relative ``rtol``; clumps corrected with
     ``montecarlo`` are checked for their fingerprint only).  Also reports correction bodies that
