@@ -13,9 +13,12 @@ and separately the clumping call alone (spheres made beforehand).  Variants:
   append_clumps     clumpprops.yade.append_clumps(list of sphere lists), one call for all
   yade + correct    appendClumped(d=0) for all, then clumpprops.yade.correct_all_clumps()
 
-Times are CPU seconds of this process (time.process_time; the machine is shared), ratios are to
-"yade d=0" in the same run.  The error columns compare each clump's YADE state with the exact
-library values: max relative mass error and max |I - I_exact| / max(I_exact) over the set.
+Times are CPU seconds of this process (time.process_time; the machine is shared), the minimum
+over ``--repeat`` rounds (default 3; each round runs every variant once, so a change of load hits
+all variants), ratios are to "yade d=0" in the same run; "(rounds)" is the median over the rounds
+of the full-build ratio taken round by round; every sample is kept in the JSON.  The error
+columns compare each clump's YADE state with the exact library values: max relative mass error
+and max |I - I_exact| / max(I_exact) over the set.
 """
 import argparse
 import os
@@ -104,30 +107,40 @@ def errors(ids, ref):
 VARIANTS = ["yade d=0", "yade d=10", "append_clump", "append_clumps", "yade + correct"]
 
 
-def bench(name, geo, variants=VARIANTS):
+def bench(name, geo, variants=VARIANTS, repeat=3):
     ref = clumpprops.mass_properties([c for c, _ in geo], [r for _, r in geo], RHO)
-    print(f"\n{name}: {len(geo)} clumps ({sum(len(r) for _, r in geo)} spheres), method='exact'")
-    print(f"{'variant':>16} {'full build [s]':>15} {'ratio':>7} {'clump call [s]':>15} {'ratio':>7} {'mass err':>9} {'inertia err':>11}")
-    base = {}
+    print(f"\n{name}: {len(geo)} clumps ({sum(len(r) for _, r in geo)} spheres), method='exact', "
+          f"min of {repeat} rounds")
+    samples = {v: {"full": [], "call": []} for v in variants}
+    errs = {}
+    for _ in range(repeat):
+        for v in variants:
+            # (1) the whole build: make the spheres and clump them
+            fresh()
+            t0 = time.process_time()
+            ids = build(v, spheres_of(geo))
+            samples[v]["full"].append(time.process_time() - t0)
+            if v not in errs:
+                errs[v] = errors(ids, ref)
+            # (2) the clumping call alone (spheres made before the clock starts)
+            fresh()
+            lists = spheres_of(geo)
+            t0 = time.process_time()
+            build(v, lists)
+            samples[v]["call"].append(time.process_time() - t0)
+    print(f"{'variant':>16} {'full build [s]':>15} {'ratio':>7} {'(rounds)':>9} {'clump call [s]':>15} {'ratio':>7} "
+          f"{'mass err':>9} {'inertia err':>11}")
+    base = {k: min(samples["yade d=0"][k]) for k in ("full", "call")}
     rows = {}
     for v in variants:
-        # (1) the whole build: make the spheres and clump them
-        fresh()
-        t0 = time.process_time()
-        ids = build(v, spheres_of(geo))
-        full = time.process_time() - t0
-        em, ei = errors(ids, ref)
-        # (2) the clumping call alone (spheres made before the clock starts)
-        fresh()
-        lists = spheres_of(geo)
-        t0 = time.process_time()
-        build(v, lists)
-        call = time.process_time() - t0
-        if v == "yade d=0":
-            base = dict(full=full, call=call)
-        rows[v] = (full, call)
-        print(f"{v:>16} {full:15.3f} {full / base['full']:7.2f} {call:15.3f} {call / base['call']:7.2f} {em:9.1e} {ei:11.1e}",
-              flush=True)
+        full, call = min(samples[v]["full"]), min(samples[v]["call"])
+        # the same ratio round by round (variant and baseline measured minutes apart at most): its median
+        per_round = float(np.median(np.array(samples[v]["full"]) / np.array(samples["yade d=0"]["full"])))
+        rows[v] = {"full": full, "call": call, "ratio_full": full / base["full"], "ratio_call": call / base["call"],
+                   "ratio_full_median_of_rounds": per_round,
+                   "samples": samples[v], "mass_err": errs[v][0], "inertia_err": errs[v][1]}
+        print(f"{v:>16} {full:15.3f} {full / base['full']:7.2f} {per_round:9.2f} {call:15.3f} {call / base['call']:7.2f} "
+              f"{errs[v][0]:9.1e} {errs[v][1]:11.1e}", flush=True)
     O.reset()
     return rows
 
@@ -136,6 +149,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="10x fewer clumps")
     ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--repeat", type=int, default=3, help="rounds; the minimum CPU time of each variant is reported")
     a = ap.parse_args()
     f = 10 if a.quick else 1
     rng = np.random.default_rng(a.seed)
@@ -143,9 +157,11 @@ def main():
           f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, CPU times (time.process_time)")
     out = {"yade": str(yade.config.version), "clumpprops": clumpprops.__version__, "quick": a.quick,
            "date": time.strftime("%Y-%m-%d %H:%M"), "loadavg_start": os.getloadavg(),
-           "columns": "variant: [full build CPU s, clumping call CPU s]; ratios to 'yade d=0'"}
-    out["dimers"] = bench("paper dimers (d = 0.1333 m, D = d/2)", dimers(10_000 // f, rng))
-    out["clumps20"] = bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng))
+           "repeat": a.repeat,
+           "columns": "variant: full/call = min CPU s over the rounds (whole build / clumping call alone), "
+                      "ratio_* to 'yade d=0', samples = every round, *_err = max relative error vs the library"}
+    out["dimers"] = bench("paper dimers (d = 0.1333 m, D = d/2)", dimers(10_000 // f, rng), repeat=a.repeat)
+    out["clumps20"] = bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng), repeat=a.repeat)
     out["loadavg_end"] = os.getloadavg()
     if not a.quick:
         import json

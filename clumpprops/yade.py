@@ -37,7 +37,7 @@ update recompute a clump with whatever members it then has, so the correction wo
 :func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
 operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
 are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
-correction is recorded in ``O.tags["clumpprops.corrections"]`` with a fingerprint of its spheres,
+correction is recorded in ``O.tags["clumpprops.corrections*"]`` (a header and chunks of entries) with a fingerprint of its spheres,
 and :func:`check` verifies the whole scene.
 
 Nothing here is imported by ``import clumpprops``; YADE itself is imported inside
@@ -49,12 +49,16 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import math
+import os
+import struct
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .api import DEFAULT_METHOD, mass_properties
+
+_blake2b = hashlib.blake2b
 
 __all__ = [
     "append_clump",
@@ -107,6 +111,7 @@ class _Y:
             cls.O = yade.O
             cls.Body = wrapper.Body
             cls.Shape = wrapper.Shape
+            cls.State = wrapper.State
             cls.Sphere = wrapper.Sphere
             cls.Clump = wrapper.Clump
             cls.Vector3 = Vector3
@@ -179,12 +184,32 @@ def correction_terms(centers, radii, densities, mass, com, inertia, strict=True)
     target that breaks either is a library error and raises :class:`ClumpAdapterError`
     naming the clump (index in the batch); nothing is clamped.
     """
-    M = len(centers)
     counts = np.array([len(r) for r in radii])
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     x = np.concatenate([np.asarray(c, float).reshape(-1, 3) for c in centers])
     r = np.concatenate([np.asarray(a, float).ravel() for a in radii])
     rho = np.concatenate([np.asarray(a, float).ravel() for a in densities])
+    return _correction_flat(x, r, rho, counts, mass, com, inertia, strict)
+
+
+def _heavy_error(k, mass, m_s):
+    return ClumpAdapterError(
+        f"clump {k} of the batch: target mass {mass!r} exceeds the summed spheres' {m_s!r}; "
+        "the union of the spheres cannot be heavier (library error)"
+    )
+
+
+def _outside_error(k, norm, reach):
+    return ClumpAdapterError(
+        f"clump {k} of the batch: the correction's centroid would lie {norm:.6g} m from the centre of "
+        f"mass, outside the clump (reach {reach:.6g} m); the target centre of mass is inconsistent "
+        "with the spheres (library error)"
+    )
+
+
+def _correction_flat(x, r, rho, counts, mass, com, inertia, strict=True):
+    """:func:`correction_terms` on flat arrays: x (S, 3), r (S,), rho (S,), counts (M,) spheres per clump."""
+    M = len(counts)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     mass = np.asarray(mass, float).reshape(M)
     com = np.asarray(com, float).reshape(M, 3)
     inertia = np.asarray(inertia, float).reshape(M, 3, 3)
@@ -207,26 +232,96 @@ def correction_terms(centers, radii, densities, mass, com, inertia, strict=True)
         heavy = m_c > m_noise
         if np.any(heavy):
             k = int(np.flatnonzero(heavy)[0])
-            raise ClumpAdapterError(
-                f"clump {k} of the batch: target mass {mass[k]!r} exceeds the summed spheres' {m_s[k]!r}; "
-                "the union of the spheres cannot be heavier (library error)"
-            )
+            raise _heavy_error(k, mass[k], m_s[k])
         norm = np.linalg.norm(off, axis=1)
         tol = reach * 1e-9 + s_noise / np.where(roundoff, 1.0, np.abs(m_c))
         outside = ~roundoff & (norm > reach + tol)
         if np.any(outside):
             k = int(np.flatnonzero(outside)[0])
-            raise ClumpAdapterError(
-                f"clump {k} of the batch: the correction's centroid would lie {norm[k]:.6g} m from the centre of "
-                f"mass, outside the clump (reach {reach[k]:.6g} m); the target centre of mass is inconsistent "
-                "with the spheres (library error)"
-            )
+            raise _outside_error(k, norm[k], reach[k])
     J = inertia - I_s - m_c[:, None, None] * _pax(off)
     J = 0.5 * (J + np.swapaxes(J, 1, 2))
     w, V = np.linalg.eigh(J)
     flip = np.linalg.det(V) < 0
     V[flip, :, 2] *= -1.0
     return m_c, off, w, V
+
+
+try:  # numpy's gufunc behind linalg.eigh, without the wrapper's checks (half the time for one 3x3)
+    from numpy.linalg._umath_linalg import eigh_lo as _eigh_lo
+except ImportError:  # pragma: no cover
+    _eigh_lo = None
+
+
+def _eigh(J):
+    """np.linalg.eigh of one finite symmetric (3, 3) float64 array."""
+    if _eigh_lo is not None:
+        w, V = _eigh_lo(J)
+        if math.isfinite(sum(w.tolist())):  # LAPACK failed to converge: NaN (numpy's wrapper raises)
+            return w, V
+    return np.linalg.eigh(J)
+
+
+_EPS = float(np.finfo(float).eps)
+_FOUR_THIRDS_PI = (4.0 / 3.0) * math.pi
+
+
+def _correction_one(pts, radii, rhos, mass, com, inertia, strict=True, k=0):
+    """:func:`correction_terms` for ONE clump in plain Python floats (numpy's per-call overhead is
+    most of the cost for a single small clump).  pts: [(x, y, z), ...], radii, rhos: lists; mass,
+    com (3,), inertia (3, 3) nested lists.  Same formulas, checks and messages (``k``: index in the
+    batch); returns (m_c, offset [3], moments [3], axes (3, 3) ndarray, right-handed columns)."""
+    cx, cy, cz = com
+    sqrt = math.sqrt
+    m_s = sx = sy = sz = 0.0
+    ixx = iyy = izz = ixy = ixz = iyz = 0.0
+    reach = smd = 0.0
+    for (px, py, pz), ri, di in zip(pts, radii, rhos):
+        mi = di * (_FOUR_THIRDS_PI * ri**3.0)
+        ji = 0.4 * mi * ri**2
+        dx, dy, dz = px - cx, py - cy, pz - cz
+        m_s += mi
+        sx += mi * dx
+        sy += mi * dy
+        sz += mi * dz
+        sq = dx * dx + dy * dy + dz * dz
+        ixx += mi * (sq - dx * dx) + ji
+        iyy += mi * (sq - dy * dy) + ji
+        izz += mi * (sq - dz * dz) + ji
+        ixy -= mi * (dx * dy)
+        ixz -= mi * (dx * dz)
+        iyz -= mi * (dy * dz)
+        dist = sqrt(sq) + ri
+        smd += mi * dist
+        if dist > reach:
+            reach = dist
+    m_c = mass - m_s
+    s_noise = 64.0 * _EPS * smd
+    if abs(m_c) * reach <= s_noise:  # round-off: no offset (see correction_terms)
+        roundoff, ox, oy, oz = True, 0.0, 0.0, 0.0
+    else:
+        roundoff, ox, oy, oz = False, -sx / m_c, -sy / m_c, -sz / m_c
+    if strict:
+        if m_c > 64.0 * _EPS * m_s:
+            raise _heavy_error(k, mass, m_s)
+        norm = sqrt(ox * ox + oy * oy + oz * oz)
+        if not roundoff and norm > reach + (reach * 1e-9 + s_noise / abs(m_c)):
+            raise _outside_error(k, norm, reach)
+    osq = ox * ox + oy * oy + oz * oz
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = inertia
+    j01 = 0.5 * ((a01 - ixy + m_c * (ox * oy)) + (a10 - ixy + m_c * (oy * ox)))
+    j02 = 0.5 * ((a02 - ixz + m_c * (ox * oz)) + (a20 - ixz + m_c * (oz * ox)))
+    j12 = 0.5 * ((a12 - iyz + m_c * (oy * oz)) + (a21 - iyz + m_c * (oz * oy)))
+    J = np.array([
+        [a00 - ixx - m_c * (osq - ox * ox), j01, j02],
+        [j01, a11 - iyy - m_c * (osq - oy * oy), j12],
+        [j02, j12, a22 - izz - m_c * (osq - oz * oz)],
+    ])
+    w, V = _eigh(J)
+    (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = V.tolist()
+    if v00 * (v11 * v22 - v12 * v21) - v01 * (v10 * v22 - v12 * v20) + v02 * (v10 * v21 - v11 * v20) < 0:
+        V[:, 2] *= -1.0
+    return m_c, [ox, oy, oz], w.tolist(), V
 
 
 # --------------------------------------------------------------------------- reading the scene
@@ -303,24 +398,153 @@ def exact_properties(clump_id, method=DEFAULT_METHOD):
     return mass_properties(x, r, density=rho[0], method=method)
 
 
-def _batch_properties(xs, rs, rhos, method):
-    """mass, com, inertia arrays for a ragged batch, calling the library once per density."""
+def _targets(xs, rs, rhos, method):
+    """Target properties of a ragged batch: mass (M,), com (M, 3), inertia (M, 3, 3) and the scale of
+    each inertia tensor (largest |principal moment|), one library call per density; nested python
+    lists instead of arrays for a small batch (M <= _SMALL).
+
+    xs: list of (N_m, 3) arrays, or one (M, N, 3) array when every clump has N spheres; rs likewise;
+    rhos: per clump, its spheres' densities (equal to 1e-12: the first one is used)."""
     M = len(xs)
-    d0 = rhos[0][0]
-    if all(rho[0] == d0 for rho in rhos):  # one density (the usual case): one call
+    dens = [rho[0] for rho in rhos]
+    d0 = dens[0]
+    if all(d == d0 for d in dens):  # one density (the usual case): one call
         mp = mass_properties(xs, rs, density=d0, method=method)
-        return mp.mass, mp.center_of_mass, mp.inertia
-    mass = np.empty(M)
-    com = np.empty((M, 3))
-    inertia = np.empty((M, 3, 3))
-    dens = np.array([rho[0] for rho in rhos])
+        if M <= _SMALL:
+            return (mp.mass.tolist(), mp.center_of_mass.tolist(), mp.inertia.tolist(),
+                    [max(abs(a) for a in row) for row in mp.principal_moments.tolist()])
+        return mp.mass, mp.center_of_mass, mp.inertia, np.max(np.abs(mp.principal_moments), axis=1)
+    mass, com, inertia, scale = np.empty(M), np.empty((M, 3)), np.empty((M, 3, 3)), np.empty(M)
+    dens = np.array(dens)
     for value in np.unique(dens):
         idx = np.flatnonzero(dens == value)
         mp = mass_properties([xs[i] for i in idx], [rs[i] for i in idx], density=value, method=method)
         mass[idx] = mp.mass
         com[idx] = mp.center_of_mass
         inertia[idx] = mp.inertia
-    return mass, com, inertia
+        scale[idx] = np.max(np.abs(mp.principal_moments), axis=1)
+    if M <= _SMALL:
+        return mass.tolist(), com.tolist(), inertia.tolist(), scale.tolist()
+    return mass, com, inertia, scale
+
+
+_SMALL = 2  # batches up to this many clumps take the plain-float path (numpy's fixed cost per call dominates)
+
+
+def _corrections(xs, rs, rhos, pts, radii, method):
+    """Targets and correction terms of a batch, before anything in the scene changes.
+
+    xs, rs: per clump (N_m, 3) and (N_m,) arrays (or stacked (M, N, 3), (M, N) when all N_m are
+    equal); rhos: per clump lists of the spheres' densities; pts, radii: per clump lists of
+    (x, y, z) and of radii (python floats, used for small batches).  Returns (targets, terms):
+    targets = (mass, com, inertia, scale) from :func:`_targets` (lists for a small batch); terms = python lists (m_c [M], offset [M][3],
+    moments [M][3]) and the axes, (M, 3, 3) or a list of M (3, 3) arrays."""
+    mass, com, inertia, scale = _targets(xs, rs, rhos, method)
+    strict = method in _STRICT
+    M = len(rhos)
+    if M <= _SMALL:  # lists (see _targets)
+        m_c, off, w, V = [], [], [], []
+        for k in range(M):
+            t = _correction_one(pts[k], radii[k], rhos[k], mass[k], com[k], inertia[k], strict, k)
+            m_c.append(t[0])
+            off.append(t[1])
+            w.append(t[2])
+            V.append(t[3])
+        return (mass, com, inertia, scale), (m_c, off, w, V)
+    counts = np.array([len(rho) for rho in rhos])
+    x = np.asarray(xs, float).reshape(-1, 3) if isinstance(xs, np.ndarray) else np.concatenate(xs)
+    r = np.asarray(rs, float).ravel() if isinstance(rs, np.ndarray) else np.concatenate(rs)
+    rho = np.fromiter((p for rho in rhos for p in rho), float, int(counts.sum()))
+    m_c, off, w, V = _correction_flat(x, r, rho, counts, mass, com, inertia, strict)
+    return (mass, com, inertia, scale), (m_c.tolist(), off.tolist(), w.tolist(), V)
+
+
+def _quaternions(V):
+    """Unit quaternions (M, 4) as (w, x, y, z) of the rotations A = V^T (V (M, 3, 3): right-handed
+    eigenvector columns): the ``ori`` that makes ``Clump::updateProperties`` add V diag(w) V^T
+    (it adds R^T diag(w) R with R = ori.toRotationMatrix()).  Largest-component branch per row,
+    as Eigen's Quaternion(Matrix3)."""
+    A = np.swapaxes(V, 1, 2)
+    a00, a11, a22 = A[:, 0, 0], A[:, 1, 1], A[:, 2, 2]
+    tr = a00 + a11 + a22
+    sq = np.stack([1.0 + tr, 1.0 + a00 - a11 - a22, 1.0 - a00 + a11 - a22, 1.0 - a00 - a11 + a22], axis=1)
+    big = np.argmax(sq, axis=1)
+    s = 2.0 * np.sqrt(np.maximum(sq[np.arange(len(A)), big], 0.5))  # the largest is >= 1 for a rotation
+    d21, d02, d10 = A[:, 2, 1] - A[:, 1, 2], A[:, 0, 2] - A[:, 2, 0], A[:, 1, 0] - A[:, 0, 1]
+    p01, p02, p12 = A[:, 0, 1] + A[:, 1, 0], A[:, 0, 2] + A[:, 2, 0], A[:, 1, 2] + A[:, 2, 1]
+    q = np.stack([
+        np.choose(big, [0.25 * s, d21 / s, d02 / s, d10 / s]),  # w
+        np.choose(big, [d21 / s, 0.25 * s, p01 / s, p02 / s]),  # x
+        np.choose(big, [d02 / s, p01 / s, 0.25 * s, p12 / s]),  # y
+        np.choose(big, [d10 / s, p02 / s, p12 / s, 0.25 * s]),  # z
+    ], axis=1)
+    return q / np.linalg.norm(q, axis=1)[:, None]
+
+
+def _state_row(st):
+    """(mass, pos, inertia, ori as x, y, z, w) of a YADE state, as floats (indexing, not iteration:
+    iterating minieigen objects goes through IndexError, which is slow)."""
+    p, w, q = st.pos, st.inertia, st.ori
+    return (st.mass, p[0], p[1], p[2], w[0], w[1], w[2], q[0], q[1], q[2], q[3])
+
+
+def _state_errors(Y, cids, mass, com, inertia, scale=None, rows=None):
+    """Relative errors (mass, centre of mass / radius of gyration, inertia / largest |moment|) of
+    YADE's state of each clump against targets (M,), (M, 3), (M, 3, 3); arrays of shape (M,).
+
+    ``scale``: the largest |principal moment| of each target (computed if not given); ``rows``:
+    the clumps' states as read by :func:`_state_row` (read from the scene if not given)."""
+    M = len(cids)
+    if rows is None:
+        bodies = Y.O.bodies
+        rows = [_state_row(bodies[cid].state) for cid in cids]
+    if scale is None:
+        scale = np.max(np.abs(np.linalg.eigvalsh(inertia)), axis=1)
+    if M <= _SMALL:
+        errs = _errors_small(rows, mass, com, inertia, scale)
+        return tuple(np.array(e, dtype=float) for e in zip(*errs))
+    a = np.array(rows, dtype=float).reshape(M, 11)
+    m_y, c_y, w_y = a[:, 0], a[:, 1:4], a[:, 4:7]
+    R = _rotations(a[:, 7:11])
+    I_y = np.einsum("kij,kj,klj->kil", R, w_y, R)
+    mass = np.asarray(mass, float)
+    scale = np.maximum(scale, 1e-300)
+    tr = np.maximum(np.trace(inertia, axis1=1, axis2=2), 0.0)
+    gyr = np.where(mass > 0, np.sqrt(tr / (2.0 * np.where(mass > 0, mass, 1.0))), 1.0)
+    e_m = np.abs(m_y - mass) / np.abs(mass)
+    e_c = np.linalg.norm(c_y - com, axis=1) / np.maximum(gyr, 1e-300)
+    e_i = np.max(np.abs(I_y - inertia), axis=(1, 2)) / scale
+    return e_m, e_c, e_i
+
+
+def _errors_small(rows, mass, com, inertia, scale):
+    """[(e_m, e_c, e_i), ...] of a small batch, one clump at a time in plain floats."""
+    def lst(a):
+        return a if isinstance(a, list) else np.asarray(a).tolist()
+
+    return [_errors_one(*args) for args in zip(rows, lst(mass), lst(com), lst(inertia), lst(scale))]
+
+
+def _errors_one(row, mass, com, inertia, scale):
+    """:func:`_state_errors` of one clump in plain floats: row from :func:`_state_row`, targets as lists."""
+    m, px, py, pz, w0, w1, w2, x, y, z, w = row
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    R = ((1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+         (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+         (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)))
+    e_i = 0.0
+    for Ri, Ti in zip(R, inertia):
+        a, b, c = Ri[0] * w0, Ri[1] * w1, Ri[2] * w2
+        for Rl, t in zip(R, Ti):
+            e = abs(a * Rl[0] + b * Rl[1] + c * Rl[2] - t)
+            if e > e_i:
+                e_i = e
+    tr = max(inertia[0][0] + inertia[1][1] + inertia[2][2], 0.0)
+    gyr = math.sqrt(tr / (2.0 * mass)) if mass > 0 else 1.0
+    e_m = abs(m - mass) / abs(mass) if mass else math.inf
+    e_c = math.sqrt((px - com[0]) ** 2 + (py - com[1]) ** 2 + (pz - com[2]) ** 2) / max(gyr, 1e-300)
+    return e_m, e_c, e_i / max(scale, 1e-300)
 
 
 def _common_mask(spheres):
@@ -332,17 +556,37 @@ def _common_mask(spheres):
     return m
 
 
-def _new_correction(Y, spheres):
+def _correction_shape(Y):
+    """The bare ``Shape`` every correction body points to (one object: a bare Shape holds no data that
+    matters to YADE, it has no bound, collision or rendering functor; sharing it saves a construction
+    per clump)."""
+    sh = getattr(Y, "corr_shape", None)
+    if sh is None:
+        sh = Y.corr_shape = Y.Shape()
+    return sh
+
+
+_PLAIN_STATE = {}  # material class -> True if its newAssocState() is a plain State (Body()'s own)
+
+
+def _new_correction(Y, spheres, mat=None, mask=None):
     """A correction body for a clump of ``spheres``: bare ``Shape``, unbounded, the spheres' material
     with the state class that material expects (``material.newAssocState()``: CpmState for CpmMat,
-    JCFpmState for JCFpmMat, ...), the spheres' common mask.  Its mass properties are set later."""
-    mat = spheres[0].material
+    JCFpmState for JCFpmMat, ...), the spheres' common mask.  Its mass properties are set later.
+    ``mat``, ``mask``: the first sphere's material and the common mask, if already known."""
+    if mat is None:
+        mat = spheres[0].material
     b = Y.Body()
-    b.shape = Y.Shape()
+    b.shape = _correction_shape(Y)
     b.material = mat
-    b.state = mat.newAssocState()
+    plain = _PLAIN_STATE.get(type(mat))
+    if not plain:  # a new Body() has a plain State already
+        st = mat.newAssocState()
+        if plain is None:
+            _PLAIN_STATE[type(mat)] = type(st) is Y.State
+        b.state = st
     b.bounded = False
-    b.mask = _common_mask(spheres)
+    b.mask = _common_mask(spheres) if mask is None else mask
     return b
 
 
@@ -367,65 +611,208 @@ def _neutralize(Y, corr):
 
 
 # --------------------------------------------------------------------------- registry (saved with the scene)
+#
+# Format 2 (this version): O.tags["clumpprops.corrections"] holds one header line
+#     "#clumpprops registry v2 chunks=<n> token=<t>"
+# and O.tags["clumpprops.corrections.<i>"] (i < n) hold the entries, at most _CHUNK each, one line
+#     "<clump id> <correction id> <fingerprint> <method>"
+# A build rewrites only the chunks it touched and the header: the cost of recording one clump does
+# not grow with the number of clumps in the scene (format 1 rewrote every entry on every call).
+# The header's token changes with every write, so comparing it with the cached one tells whether the
+# scene (O.load, O.loadTmp, O.reset, another scene) still holds what this process last wrote.
+# Format 1 (before): the entries themselves in O.tags["clumpprops.corrections"]; read as such and
+# rewritten as format 2 on the next write.  Fingerprints carry their scheme: "b2:<16 hex>" (blake2b of
+# the sphere records, format 2) or 16 hex digits (sha1 of their text, format 1).
 
 _TAG = "clumpprops.corrections"
+_HEADER = "#clumpprops registry v2"
+_CHUNK = 256
 _STRICT = ("exact", "pairwise", "sum")
+_token = [os.urandom(6).hex(), 0]
+
+
 class _Registry(dict):
-    """{clump id: (correction id, fingerprint, method)} that keeps each entry's line of text, so
-    that writing it back to ``O.tags`` costs one join (no sorting, no reformatting)."""
+    """{clump id: (correction id, fingerprint, method)} with its O.tags layout: the chunk of each
+    entry, each chunk's entry lines and text, and which chunks must be written back."""
 
     def __init__(self):
         super().__init__()
-        self.lines = {}
-        self.dirty = False
+        self.chunk_of = {}  # clump id -> chunk index
+        self.chunks = []  # per chunk: {clump id: line}
+        self.texts = []  # per chunk: its text as last written, or None (to be joined)
+        self.tails = []  # per chunk: lines appended since (texts[k] + "".join(tails[k]) is current)
+        self.dirty = set()  # chunks to write
+        self.header = ""  # the header this object matches in O.tags
+        self.changed = False  # mutated since read or written
+
+    def _new_chunk(self):
+        self.chunks.append({})
+        self.texts.append("")
+        self.tails.append([])
+        return len(self.chunks) - 1
 
     def __setitem__(self, cid, rec):
+        line = f"{cid} {rec[0]} {rec[1]} {rec[2]}\n"
+        k = self.chunk_of.get(cid)
+        if k is None:
+            k = len(self.chunks) - 1
+            if k < 0 or len(self.chunks[k]) >= _CHUNK:
+                k = self._new_chunk()
+            self.chunk_of[cid] = k
+            if self.texts[k] is not None:
+                self.tails[k].append(line)
+        else:
+            self.texts[k] = None
+        self.chunks[k][cid] = line
         super().__setitem__(cid, rec)
-        self.lines[cid] = f"{cid} {rec[0]} {rec[1]} {rec[2]}\n"
-        self.dirty = True
+        self.dirty.add(k)
+        self.changed = True
 
     def pop(self, cid, *default):
-        self.lines.pop(cid, None)
-        self.dirty = True
+        k = self.chunk_of.pop(cid, None)
+        if k is not None:
+            del self.chunks[k][cid]
+            self.texts[k] = None
+            self.dirty.add(k)
+            self.changed = True
         return super().pop(cid, *default)
 
+    def text(self, k):
+        t = self.texts[k]
+        if t is None:
+            t = "".join(self.chunks[k].values())
+        elif self.tails[k]:
+            t += "".join(self.tails[k])
+        self.texts[k] = t
+        self.tails[k] = []
+        return t
 
-_cache = {"text": None, "reg": _Registry()}
+    def _add_parsed(self, text, k, what):
+        for n, line in enumerate(text.splitlines(), 1):
+            f = line.split()
+            if not f or line.startswith("#"):
+                continue
+            if len(f) != 4:
+                raise ClumpAdapterError(
+                    f"the clumpprops registry in O.tags[{what!r}] is damaged (line {n}: {line!r}); "
+                    "run cy.correct_all_clumps() to rebuild it"
+                )
+            cid = int(f[0])
+            dict.__setitem__(self, cid, (int(f[1]), f[2], f[3]))
+            self.chunk_of[cid] = k
+            self.chunks[k][cid] = line + "\n"
+
+    @classmethod
+    def parse(cls, Y, head):
+        """The registry of the current scene, whose header tag reads ``head``."""
+        reg = cls()
+        reg.header = head
+        tags = Y.O.tags
+        if head.startswith(_HEADER):
+            fields = dict(f.split("=", 1) for f in head.split()[3:] if "=" in f)
+            for k in range(int(fields.get("chunks", 0))):
+                key = f"{_TAG}.{k}"
+                try:
+                    text = tags[key]
+                except KeyError:
+                    raise ClumpAdapterError(
+                        f"the clumpprops registry in O.tags is damaged: {key!r} is missing; "
+                        "run cy.correct_all_clumps() to rebuild it"
+                    ) from None
+                reg._add_parsed(text, reg._new_chunk(), key)
+                reg.texts[k] = text
+        elif head.startswith("#clumpprops registry"):
+            raise ClumpAdapterError(
+                f"the clumpprops registry in O.tags has an unknown format ({head.split(chr(10))[0]!r}): "
+                "the scene was saved by a newer clumpprops"
+            )
+        elif head:  # format 1: every entry in the one tag; rewritten as format 2 on the next write
+            old = _Registry()
+            old._add_parsed(head, old._new_chunk(), _TAG)
+            for cid, rec in old.items():
+                reg[cid] = rec
+            reg.changed = False
+        return reg
+
+
+_cache = {"reg": _Registry()}
 
 
 def _registry():
-    """The scene's registry, parsed from ``O.tags`` (cached while the tag is unchanged).
+    """The scene's registry, parsed from ``O.tags`` (cached while the header is the one last seen).
 
     Returns the cached object itself: mutate it and call :func:`_save_registry`."""
     Y = _Y.load()
     tags = Y.O.tags
-    text = tags[_TAG] if _TAG in tags.keys() else ""
+    try:
+        head = tags[_TAG]
+    except KeyError:
+        head = ""
     reg = _cache["reg"]
-    if text != _cache["text"] or reg.dirty:
-        reg = _Registry()
-        for line in text.splitlines():
-            f = line.split()
-            if len(f) == 4:
-                reg[int(f[0])] = (int(f[1]), f[2], f[3])
-        reg.dirty = False
-        _cache["text"], _cache["reg"] = text, reg
+    if head != reg.header or reg.changed:
+        reg = _cache["reg"] = _Registry.parse(Y, head)
     return reg
 
 
 def _save_registry(reg):
+    """Write the chunks ``reg`` changed and a new header to ``O.tags``."""
     Y = _Y.load()
-    text = "".join(reg.lines.values())
-    Y.O.tags[_TAG] = text
-    reg.dirty = False
-    _cache["text"], _cache["reg"] = text, reg
+    tags = Y.O.tags
+    for k in sorted(reg.dirty):
+        tags[f"{_TAG}.{k}"] = reg.text(k)
+    _token[1] += 1
+    head = f"{_HEADER} chunks={len(reg.chunks)} token={_token[0]}.{_token[1]}\n"
+    tags[_TAG] = head
+    reg.header = head
+    reg.dirty.clear()
+    reg.changed = False
+    _cache["reg"] = reg
+
+
+_FP_RECORD = np.dtype([("id", "<i8"), ("radius", "<f8"), ("density", "<f8")])
+
+
+def _fp(ids, radii, rhos):
+    """Fingerprint (format 2) of a sphere set: blake2b (8 bytes) of its (id, radius, density) records,
+    little-endian int64 and float64, sorted by id; written "b2:<16 hex digits>"."""
+    recs = zip(ids, radii, rhos)
+    if any(a > b for a, b in zip(ids, ids[1:])):
+        recs = sorted(recs)
+    return "b2:" + _blake2b(struct.pack("<" + "qdd" * len(ids), *[v for rec in recs for v in rec]),
+                            digest_size=8).hexdigest()
+
+
+def _fps(ids, radii, rhos, counts):
+    """:func:`_fp` of many sphere sets at once: flat (S,) ids, radii, densities and the (M,) counts."""
+    counts = np.asarray(counts)
+    rec = np.empty(len(ids), _FP_RECORD)
+    rec["id"], rec["radius"], rec["density"] = ids, radii, rhos
+    rec = rec[np.lexsort((rec["id"], np.repeat(np.arange(len(counts)), counts)))]  # by id within each set
+    buf = memoryview(rec.tobytes())
+    ends = (np.cumsum(counts) * _FP_RECORD.itemsize).tolist()
+    out, a = [], 0
+    for e in ends:
+        out.append("b2:" + _blake2b(buf[a:e], digest_size=8).hexdigest())
+        a = e
+    return out
 
 
 def _fingerprint(spheres):
     """Identity of a clump's sphere set: ids, radii, densities (not positions: the clump moves)."""
+    return _fp([b.id for b in spheres], [float(b.shape.radius) for b in spheres],
+               [float(b.material.density) for b in spheres])
+
+
+def _fingerprint_v1(spheres):
+    """The format-1 fingerprint (scenes saved before format 2): sha1 of the spheres' text."""
     h = hashlib.sha1()
     for b in sorted(spheres, key=lambda b: b.id):
         h.update(f"{b.id}:{float(b.shape.radius).hex()}:{float(b.material.density).hex()};".encode())
     return h.hexdigest()[:16]
+
+
+def _fingerprint_matches(fp, spheres):
+    return fp == (_fingerprint(spheres) if fp.startswith("b2:") else _fingerprint_v1(spheres))
 
 
 # --------------------------------------------------------------------------- building
@@ -475,30 +862,6 @@ def _raw(Y, name, *args, what, **kw):
     return ret
 
 
-def _state_errors(Y, cids, mass, com, inertia):
-    """Relative errors (mass, centre of mass / radius of gyration, inertia / largest |moment|) of
-    YADE's state of each clump against targets (M,), (M, 3), (M, 3, 3); arrays of shape (M,)."""
-    M = len(cids)
-    rows = []
-    bodies = Y.O.bodies
-    for cid in cids:  # plain indexing: iterating minieigen objects goes through IndexError (slow)
-        st = bodies[cid].state
-        p, w, q = st.pos, st.inertia, st.ori
-        rows.append((st.mass, p[0], p[1], p[2], w[0], w[1], w[2], q[0], q[1], q[2], q[3]))
-    a = np.array(rows, dtype=float).reshape(M, 11)
-    m_y, c_y, w_y = a[:, 0], a[:, 1:4], a[:, 4:7]
-    R = _rotations(a[:, 7:11])
-    I_y = np.einsum("kij,kj,klj->kil", R, w_y, R)
-    mass = np.asarray(mass, float)
-    scale = np.maximum(np.max(np.abs(np.linalg.eigvalsh(inertia)), axis=1), 1e-300)
-    tr = np.maximum(np.trace(inertia, axis1=1, axis2=2), 0.0)
-    gyr = np.where(mass > 0, np.sqrt(tr / (2.0 * np.where(mass > 0, mass, 1.0))), 1.0)
-    e_m = np.abs(m_y - mass) / np.abs(mass)
-    e_c = np.linalg.norm(c_y - com, axis=1) / np.maximum(gyr, 1e-300)
-    e_i = np.max(np.abs(I_y - inertia), axis=(1, 2)) / scale
-    return e_m, e_c, e_i
-
-
 def _rotations(q):
     """Rotation matrices (M, 3, 3) of quaternions (M, 4) given as (x, y, z, w), as minieigen's
     ``toRotationMatrix`` computes them (normalised first)."""
@@ -517,10 +880,15 @@ def _rotations(q):
     return R
 
 
-def _verify(Y, cids, mass, com, inertia, rtol=1e-10):
-    """YADE's state of each clump equals the target (mass, COM, inertia tensor), else raise."""
-    e_m, e_c, e_i = _state_errors(Y, cids, mass, com, inertia)
-    bad = np.flatnonzero(~((e_m <= rtol) & (e_c <= rtol) & (e_i <= rtol)))
+def _verify(Y, cids, mass, com, inertia, rtol=1e-10, scale=None, rows=None):
+    """YADE's state of each clump equals the target (mass, COM, inertia tensor), else raise
+    (``scale``, ``rows``: see :func:`_state_errors`)."""
+    if len(cids) <= _SMALL and scale is not None and rows is not None:
+        e_m, e_c, e_i = zip(*_errors_small(rows, mass, com, inertia, scale))
+        bad = [k for k in range(len(cids)) if not (e_m[k] <= rtol and e_c[k] <= rtol and e_i[k] <= rtol)]
+    else:
+        e_m, e_c, e_i = _state_errors(Y, cids, mass, com, inertia, scale, rows)
+        bad = np.flatnonzero(~((e_m <= rtol) & (e_c <= rtol) & (e_i <= rtol)))
     if len(bad):
         k = int(bad[0])
         raise ClumpAdapterError(
@@ -547,8 +915,8 @@ def _apply(plan, method):
         rs.append(r)
         rhos.append(_clump_density(f"clump #{plan[len(xs) - 1][0].id}", spheres))
     try:
-        mass, com, inertia = _batch_properties(xs, rs, rhos, method)
-        m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia, strict=method in _STRICT)
+        (mass, com, inertia, scale), (m_c, off, w_c, V_c) = _corrections(xs, rs, rhos, [x.tolist() for x in xs],
+                                                                      [r.tolist() for r in rs], method)
     except ClumpAdapterError as exc:
         k = _batch_index(str(exc))
         raise ClumpAdapterError(f"clump #{plan[k][0].id}: {exc}" if k is not None else str(exc)) from exc
@@ -560,7 +928,7 @@ def _apply(plan, method):
     for k, (cb, spheres, corr) in enumerate(plan):
         cid = cb.id
         c_old, v_old, w_old = _velocity_field(cb)
-        o = com[k]
+        o = np.asarray(com[k], dtype=float)
         _place(Y, spheres, xs[k] - o)  # update around the origin, then move back (see _restore)
         if corr is None:
             corr = _new_correction(Y, spheres)
@@ -578,7 +946,7 @@ def _apply(plan, method):
             else:  # YADE refuses to release from a clump of < 2 members: update this clump alone
                 others = [b.id for b in Y.O.bodies if b is not None and b.isClump and b.id != cid]
                 _raw(Y, "updateClumpProperties", excludeList=others, discretization=0, what=f"clump #{cid}")
-        _restore(Y, cb, spheres, xs[k], corr, off[k], o)
+        _restore(Y, cb, spheres, xs[k], corr, np.asarray(off[k]), o)
         # updateProperties zeroes vel and angVel (not angMom): restore the rigid-body velocity
         # field, with angMom consistent with the new tensor
         c_new = _vec(cb.state.pos)
@@ -586,7 +954,7 @@ def _apply(plan, method):
         reg[cid] = (corr.id, _fingerprint(spheres), method)
         out.append(corr.id)
     _save_registry(reg)
-    _verify(Y, [cb.id for cb, _, _ in plan], mass, com, inertia)
+    _verify(Y, [cb.id for cb, _, _ in plan], mass, com, inertia, scale=scale)
     return out
 
 
@@ -598,7 +966,8 @@ def _batch_index(message):
 
 
 def _check_new_spheres(Y, k, spheres, seen):
-    """Validate one input clump; returns (bodies, positions [(x, y, z)], radii, densities)."""
+    """Validate one input clump; returns (bodies, positions [(x, y, z)], radii, densities, material of
+    the first sphere, mask common to all, the bodies' states)."""
     label = f"clump {k} of the input"
     try:
         spheres = list(spheres)
@@ -607,7 +976,8 @@ def _check_new_spheres(Y, k, spheres, seen):
     if not spheres:
         raise ClumpAdapterError(f"{label} is empty")
     Body, Sphere = Y.Body, Y.Sphere
-    xs, rs, rho = [], [], []
+    xs, rs, rho, states = [], [], [], []
+    mask = -1
     for j, b in enumerate(spheres):
         if not isinstance(b, Body):
             raise ClumpAdapterError(f"{label}, item {j}: not a yade Body ({type(b).__name__})")
@@ -627,14 +997,46 @@ def _check_new_spheres(Y, k, spheres, seen):
         if key in seen:
             raise ClumpAdapterError(f"{label}, item {j}: the same Body object is given twice")
         seen.add(key)
-        p = b.state.pos
+        st = b.state
+        states.append(st)
+        p = st.pos
         xs.append((p[0], p[1], p[2]))
         rs.append(r)
         rho.append(mat.density)
+        mask &= b.mask
+        if j == 0:
+            mat0 = mat
     r0 = rho[0]
     if not (math.isfinite(r0) and r0 > 0) or any(p != r0 for p in rho):
         _clump_density(label, spheres)  # raises with the details (or accepts a 1e-12 spread)
-    return spheres, xs, rs, rho
+    return spheres, xs, rs, rho, mat0, mask, states
+
+
+def _quaternion_one(V):
+    """(w, x, y, z) of the rotation A = V^T, V a (3, 3) array of right-handed columns: the scalar
+    twin of :func:`_quaternions` (same branches, same formulas)."""
+    (a00, a10, a20), (a01, a11, a21), (a02, a12, a22) = V.tolist()  # rows of V = columns of A
+    sq = (1.0 + (a00 + a11 + a22), 1.0 + a00 - a11 - a22, 1.0 - a00 + a11 - a22, 1.0 - a00 - a11 + a22)
+    big = max(range(4), key=sq.__getitem__)
+    s = 2.0 * math.sqrt(max(sq[big], 0.5))
+    if big == 0:
+        q = (0.25 * s, (a21 - a12) / s, (a02 - a20) / s, (a10 - a01) / s)
+    elif big == 1:
+        q = ((a21 - a12) / s, 0.25 * s, (a01 + a10) / s, (a02 + a20) / s)
+    elif big == 2:
+        q = ((a02 - a20) / s, (a01 + a10) / s, 0.25 * s, (a12 + a21) / s)
+    else:
+        q = ((a10 - a01) / s, (a02 + a20) / s, (a12 + a21) / s, 0.25 * s)
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+def _orientations(V):
+    """(w, x, y, z) of the ``ori`` of each correction, axes V ((M, 3, 3) or a list of (3, 3)): the
+    rotation that makes ``Clump::updateProperties`` add V diag(w) V^T; vectorised for a large batch."""
+    if len(V) <= _SMALL:
+        return [_quaternion_one(v) for v in V]
+    return _quaternions(np.asarray(V)).tolist()
 
 
 def append_clumps(clumps, method=DEFAULT_METHOD):
@@ -649,48 +1051,77 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
     checked = [_check_new_spheres(Y, k, s, seen) for k, s in enumerate(clumps)]
     if not checked:
         return []
-    xs = [np.array(c[1], dtype=float) for c in checked]
-    rs = [np.array(c[2], dtype=float) for c in checked]
-    rhos = [c[3] for c in checked]
+    M = len(checked)
+    n0 = len(checked[0][2])
+    pts = [c[1] for c in checked]
+    if M <= _SMALL:
+        xs = [np.array(c, dtype=float) for c in pts]
+        rs = [np.array(c[2], dtype=float) for c in checked]
+    elif all(len(c[2]) == n0 for c in checked):  # one (M, N, 3) array: no per-clump arrays
+        xs = np.array([p for c in pts for p in c], dtype=float).reshape(M, n0, 3)
+        rs = np.array([r for c in checked for r in c[2]], dtype=float).reshape(M, n0)
+    else:
+        xs = [np.array(c, dtype=float) for c in pts]
+        rs = [np.array(c[2], dtype=float) for c in checked]
     try:
-        mass, com, inertia = _batch_properties(xs, rs, rhos, method)
-        m_c, off, w_c, V_c = correction_terms(xs, rs, rhos, mass, com, inertia, strict=method in _STRICT)
+        (mass, com, inertia, scale), (m_l, off_l, w_l, V_c) = _corrections(xs, rs, [c[3] for c in checked], pts,
+                                                                          [c[2] for c in checked], method)
     except ClumpAdapterError as exc:
         k = _batch_index(str(exc))
         raise ClumpAdapterError(f"clump {k} of the input: {exc}" if k is not None else str(exc)) from exc
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
-    # python floats from here: the per-clump loop talks to YADE only
-    V3, Q, M3 = Y.Vector3, Y.Quaternion, Y.Matrix3
-    com_l, off_l, w_l, m_l = com.tolist(), off.tolist(), w_c.tolist(), m_c.tolist()
-    rows_l = np.swapaxes(V_c, 1, 2).reshape(-1, 9).tolist()  # V^T, row by row (see _set_correction_state)
+    oris = _orientations(V_c)
+    # ---- from here on the scene is modified; python floats and YADE objects only
+    Body, State, Quat = Y.Body, Y.State, Y.Quaternion
+    shape = _correction_shape(Y)
+    com_l = com if isinstance(com, list) else com.tolist()
     append = Y.O.bodies.appendClumped
-    reg = _registry()
-    out = []
-    for k, (spheres, pos, _, _) in enumerate(checked):
+    bodies = Y.O.bodies
+    out, rows, corr_ids = [], [], []
+    for k, (spheres, pos, _, _, mat, mask, states) in enumerate(checked):
         ox, oy, oz = com_l[k]
-        for b, (x, y, z) in zip(spheres, pos):  # build near the origin: see _restore
-            b.state.pos = V3(x - ox, y - oy, z - oz)
-        corr = _new_correction(Y, spheres)
+        for sb, (x, y, z) in zip(states, pos):  # build near the origin: see _restore
+            sb.pos = (x - ox, y - oy, z - oz)
+        corr = Body()  # as _new_correction, inlined
+        corr.shape = shape
+        corr.material = mat
+        plain = _PLAIN_STATE.get(type(mat))
+        if not plain:
+            st = mat.newAssocState()
+            if plain is None:
+                _PLAIN_STATE[type(mat)] = type(st) is State
+            corr.state = st
+        corr.bounded = False
+        corr.mask = mask
         st = corr.state
-        st.mass = m_l[k]
-        st.pos = V3(*off_l[k])
-        st.inertia = V3(*w_l[k])
-        q = Q(M3(*rows_l[k]))
-        q.normalize()
-        st.ori = q
-        cid, mids = append(spheres + [corr], 0)
-        c = Y.O.bodies[cid].state
-        p = c.pos
-        c.pos = V3(ox + p[0], oy + p[1], oz + p[2])
-        for b, xyz in zip(spheres, pos):
-            b.state.pos = V3(*xyz)
         dx, dy, dz = off_l[k]
-        st.pos = V3(ox + dx, oy + dy, oz + dz)
-        reg[cid] = (corr.id, _fingerprint(spheres), method)
-        out.append((cid, list(mids[: len(spheres)])))
+        st.mass = m_l[k]
+        st.pos = (dx, dy, dz)
+        st.inertia = tuple(w_l[k])
+        st.ori = Quat(*oris[k])
+        cid, mids = append(spheres + [corr], 0)
+        c = bodies[cid].state
+        p = c.pos
+        cx, cy, cz = ox + p[0], oy + p[1], oz + p[2]
+        c.pos = (cx, cy, cz)
+        for sb, xyz in zip(states, pos):  # the spheres' own coordinates, bit for bit
+            sb.pos = xyz
+        st.pos = (ox + dx, oy + dy, oz + dz)
+        w, q = c.inertia, c.ori  # YADE's result (and the position just set), verified below (see _state_row)
+        rows.append((c.mass, cx, cy, cz, w[0], w[1], w[2], q[0], q[1], q[2], q[3]))
+        corr_ids.append(corr.id)
+        out.append((cid, mids[: len(spheres)]))
+    if M <= _SMALL:
+        fps = [_fp(mids, c[2], c[3]) for (_, mids), c in zip(out, checked)]
+    else:
+        fps = _fps([i for _, mids in out for i in mids], [r for c in checked for r in c[2]],
+                   [p for c in checked for p in c[3]], [len(c[2]) for c in checked])
+    reg = _registry()
+    for (cid, _), corr_id, fp in zip(out, corr_ids, fps):
+        reg[cid] = (corr_id, fp, method)
     _save_registry(reg)
-    _verify(Y, [cid for cid, _ in out], mass, com, inertia)
+    _verify(Y, [cid for cid, _ in out], mass, com, inertia, scale=scale, rows=rows)
     return out
 
 
@@ -1154,7 +1585,7 @@ def check(rtol=1e-9, raise_on_error=False):
     """Verify every clump of the scene against its exact properties; report stale or orphaned corrections.
 
     For each corrected clump: the correction is the one recorded in the registry
-    (``O.tags["clumpprops.corrections"]``, saved with the scene), the sphere set has the recorded
+    (``O.tags["clumpprops.corrections*"]``, saved with the scene), the sphere set has the recorded
     fingerprint (ids, radii, densities), and YADE's mass, centre of mass and inertia tensor equal
     the library's for the spheres where they are now (relative ``rtol``; clumps corrected with
     ``montecarlo`` are checked for their fingerprint only).  Also reports correction bodies that
@@ -1198,7 +1629,7 @@ def check(rtol=1e-9, raise_on_error=False):
         why = []
         if rec[0] != corr.id:
             why.append(f"correction is #{corr.id}, the registry records #{rec[0]}")
-        if rec[1] != _fingerprint(spheres):
+        if not _fingerprint_matches(rec[1], spheres):
             why.append("its sphere set changed since it was corrected (fingerprint differs)")
         pending.append((cid, spheres, rec[2], why))
     # YADE's state against the library, one batch per method
@@ -1214,12 +1645,12 @@ def check(rtol=1e-9, raise_on_error=False):
                     xs.append(x)
                     rs.append(r)
                     rhos.append(_clump_density(f"clump #{items[len(xs) - 1][0]}", spheres))
-                mass, com, inertia = _batch_properties(xs, rs, rhos, method)
+                mass, com, inertia, scale = _targets(xs, rs, rhos, method)
             except (ValueError, ImportError) as exc:
                 for _, _, _, why in items:
                     why.append(f"exact properties could not be computed: {exc}")
             else:
-                e_m, e_c, e_i = _state_errors(Y, [it[0] for it in items], mass, com, inertia)
+                e_m, e_c, e_i = _state_errors(Y, [it[0] for it in items], mass, com, inertia, scale)
                 for k, (_, _, _, why) in enumerate(items):
                     e = max(e_m[k], e_c[k], e_i[k])
                     rep.max_error = max(rep.max_error, float(e))
