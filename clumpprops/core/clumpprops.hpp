@@ -95,15 +95,23 @@ inline double diamond(double x, double y) {
 }
 
 // ------------------------------------------------------------------ pair search
-// Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps; above, sort and sweep
-// along the axis of largest extent (a pair can only overlap if its intervals c_x +- r overlap),
-// so a clump where each sphere meets a bounded number of others costs O(N log N + overlaps).
+// Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps.  Above, a uniform grid
+// (cell list) with cells at least as wide as the largest r_a + r_b: a pair can only overlap if its
+// cells are neighbours, so a clump where each sphere meets a bounded number of others costs
+// O(N + overlaps).  Where a grid does not suit (radii too uneven: cells sized by the largest
+// sphere would hold many small ones; extreme magnitudes), sort and sweep along the axis of largest
+// extent (a pair can only overlap if its intervals c_x +- r overlap): O(N log N + candidates).
 // Candidates are screened with comparisons that only reject pairs the exact test
 // fl(sqrt(dx^2 + dy^2 + dz^2)) < r_a + r_b rejects too (margins far above round-off, and only
-// where no square underflows), so the pairs and their order are those of the plain loops.
+// where no square underflows), so the pairs are those of the plain loops; the grid also emits them
+// in the plain loops' order (a, then b), the sweep in its own order (the exact method does not
+// depend on it; the pairwise method's sums do, to round-off).
 struct PairSearch {
   std::vector<int> order;
   std::vector<double> lo, hi, sw;  // sweep order: interval ends; (c_x, c_y, c_z, r) of each sphere
+  std::vector<int> cell, cell_start, gidx;  // grid: cell of each sphere; CSR of the cells; spheres in cell order
+  std::vector<double> gsw;                  // (c_x, c_y, c_z, r) in cell order
+  std::vector<Pair> tmp;                    // pairs in the grid's order
 
   // exact overlap test of spheres a < b, and the pair (D, unit direction)
   static bool test(const double* c, const double* r, int a, int b, Pair& p) {
@@ -134,6 +142,114 @@ struct PairSearch {
     if (test(c, r, a, b, p)) out.push_back(p);
   }
 
+  // Uniform grid; false (nothing done) where it does not suit.
+  bool grid(const double* c, const double* r, int n, std::vector<Pair>& out) {
+    double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]}, rmax = r[0], rsum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      for (int x = 0; x < 3; ++x) {
+        mn[x] = std::min(mn[x], c[3 * i + x]);
+        mx[x] = std::max(mx[x], c[3 * i + x]);
+      }
+      rmax = std::max(rmax, r[i]);
+      rsum += r[i];
+    }
+    // radii within a factor 3 of their mean (else many small spheres per cell), no square of a
+    // distance that can underflow across a cell (the exact test's underflow cases stay in one
+    // neighbourhood), nothing that overflows
+    if (!(rmax <= 3.0 * (rsum / n)) || !(rmax > 1e-140 && rmax < 1e100)) return false;
+    double ext[3];
+    for (int x = 0; x < 3; ++x) {
+      ext[x] = mx[x] - mn[x];
+      if (!(ext[x] < 1e300)) return false;
+    }
+    // cell width h: every overlapping pair has |dx| <= D <= fl(D) (1 + 3 eps) < 2 rmax (1 + 3 eps)
+    // per axis; the 1e-6 margin keeps such pairs in neighbouring cells despite the rounding of
+    // (c - min) / h (relative 2.3e-16 of a quotient below 2^12).  At most ~4 N cells.
+    const double limit = 4.0 * n + 64.0;
+    double h = std::max(2.0 * rmax * (1.0 + 1e-6), std::max(ext[0], std::max(ext[1], ext[2])) / limit);
+    double dim[3];
+    for (;;) {
+      for (int x = 0; x < 3; ++x) dim[x] = std::floor(ext[x] / h) + 1.0;
+      if (dim[0] * dim[1] * dim[2] <= limit) break;
+      h *= 1.25;
+    }
+    const int nx = static_cast<int>(dim[0]), ny = static_cast<int>(dim[1]), nz = static_cast<int>(dim[2]);
+    const int ncell = nx * ny * nz;
+    const double inv_h = 1.0 / h;
+    int* cl = filled(cell, n, 0);
+    int* cs = filled(cell_start, static_cast<std::size_t>(ncell) + 1, 0);
+    int ic[3];
+    for (int i = 0; i < n; ++i) {
+      for (int x = 0; x < 3; ++x) ic[x] = std::min(static_cast<int>((c[3 * i + x] - mn[x]) * inv_h), static_cast<int>(dim[x]) - 1);
+      cl[i] = (ic[2] * ny + ic[1]) * nx + ic[0];
+      ++cs[cl[i] + 1];
+    }
+    for (int k = 0; k < ncell; ++k) cs[k + 1] += cs[k];
+    if (gidx.size() < static_cast<std::size_t>(n)) gidx.resize(n);
+    if (gsw.size() < 4 * static_cast<std::size_t>(n)) gsw.resize(4 * static_cast<std::size_t>(n));
+    if (order.size() < static_cast<std::size_t>(ncell)) order.resize(ncell);
+    int* fillp = order.data();  // fill pointers
+    for (int k = 0; k < ncell; ++k) fillp[k] = cs[k];
+    for (int i = 0; i < n; ++i) {  // spheres of a cell in index order
+      const int q = fillp[cl[i]]++;
+      gidx[q] = i;
+      for (int x = 0; x < 3; ++x) gsw[4 * q + x] = c[3 * i + x];
+      gsw[4 * q + 3] = r[i];
+    }
+    // half shell: each sphere against the later spheres of its cell and the next cell in x (one
+    // contiguous range), and the three cells of the next row in y and the nine of the next layer
+    // in z; the pairs found go to tmp, then in the plain loops' order (a, then b) to out
+    const int* gi = gidx.data();
+    const double* g = gsw.data();
+    tmp.clear();
+    auto scan = [&](int q, int q0, int q1) {
+      const double* sa = g + 4 * q;
+      const double ax = sa[0], ay = sa[1], az = sa[2], ra = sa[3];
+      for (int u = q0; u < q1; ++u) {
+        // the exact test's own rejection (same operands, same rounding as in test), before its call
+        const double* sb = g + 4 * u;
+        const double dx = sb[0] - ax, dy = sb[1] - ay, dz = sb[2] - az;
+        const double s = ra + sb[3];
+        const double s2 = s * s;
+        if (dx * dx + dy * dy + dz * dz > s2 * (1.0 + 1e-12) && s2 > 1e-290) continue;
+        const int i = gi[q], j = gi[u];
+        test(c, r, std::min(i, j), std::max(i, j), tmp);
+      }
+    };
+    for (int z = 0; z < nz; ++z)
+      for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x) {
+          const int k = (z * ny + y) * nx + x;
+          const int xm = std::max(x - 1, 0), xp = std::min(x + 1, nx - 1);
+          for (int q = cs[k]; q < cs[k + 1]; ++q) {
+            scan(q, q + 1, cs[(z * ny + y) * nx + xp + 1]);
+            if (y + 1 < ny) {
+              const int row = (z * ny + y + 1) * nx;
+              scan(q, cs[row + xm], cs[row + xp + 1]);
+            }
+            if (z + 1 < nz)
+              for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, ny - 1); ++yy) {
+                const int row = ((z + 1) * ny + yy) * nx;
+                scan(q, cs[row + xm], cs[row + xp + 1]);
+              }
+          }
+        }
+    // counting sort by a, then b within each a (a few pairs each)
+    const int P = static_cast<int>(tmp.size());
+    int* cnt = filled(cell, n + 1, 0);  // the cells are no longer needed
+    for (int t = 0; t < P; ++t) ++cnt[tmp[t].a + 1];
+    for (int i = 0; i < n; ++i) cnt[i + 1] += cnt[i];
+    out.resize(P);
+    for (int t = 0; t < P; ++t) out[cnt[tmp[t].a]++] = tmp[t];
+    // cnt[i] is now the end of a = i
+    for (int i = 0, b0 = 0; i < n; ++i) {
+      const int b1 = cnt[i];
+      if (b1 - b0 > 1) small_sort(out.data() + b0, b1 - b0, [](const Pair& p, const Pair& q) { return p.b < q.b; });
+      b0 = b1;
+    }
+    return true;
+  }
+
   void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
     out.clear();
     if (n <= 40) {
@@ -141,6 +257,7 @@ struct PairSearch {
         for (int j = i + 1; j < n; ++j) test(c, r, i, j, out);
       return;
     }
+    if (grid(c, r, n, out)) return;
     double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]};
     for (int i = 1; i < n; ++i)
       for (int x = 0; x < 3; ++x) {
