@@ -156,7 +156,7 @@ struct PairSearch {
     // radii within a factor 3 of their mean (else many small spheres per cell), no square of a
     // distance that can underflow across a cell (the exact test's underflow cases stay in one
     // neighbourhood), nothing that overflows
-    if (!(rmax <= 3.0 * (rsum / n)) || !(rmax > 1e-140 && rmax < 1e100)) return false;
+    if (n > 100000000 || !(rmax <= 3.0 * (rsum / n)) || !(rmax > 1e-140 && rmax < 1e100)) return false;
     double ext[3];
     for (int x = 0; x < 3; ++x) {
       ext[x] = mx[x] - mn[x];
@@ -164,7 +164,7 @@ struct PairSearch {
     }
     // cell width h: every overlapping pair has |dx| <= D <= fl(D) (1 + 3 eps) < 2 rmax (1 + 3 eps)
     // per axis; the 1e-6 margin keeps such pairs in neighbouring cells despite the rounding of
-    // (c - min) / h (relative 2.3e-16 of a quotient below 2^12).  At most ~4 N cells.
+    // (c - min) * (1 / h) (relative 3.4e-16 of a quotient below 4 N + 64 < 1e9).  At most ~4 N cells.
     const double limit = 4.0 * n + 64.0;
     double h = std::max(2.0 * rmax * (1.0 + 1e-6), std::max(ext[0], std::max(ext[1], ext[2])) / limit);
     double dim[3];
@@ -491,7 +491,7 @@ inline void Arrangement::choose_pole(int K, double* q) {
 }
 
 inline void Arrangement::compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out) {
-  C.resize(K);
+  if (C.size() < static_cast<std::size_t>(K)) C.resize(K);  // grows only: no per-call construction
   for (int k = 0; k < K; ++k) {
     Circle& c = C[k];
     for (int x = 0; x < 3; ++x) c.n[x] = caps[k].n[x];
@@ -587,7 +587,7 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
     Event* E = ev.data() + static_cast<std::size_t>(k) * stride;
     const int P = nev_[k];
-    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, Iccc = 0, Isss = 0, Iccs = 0, Icss = 0;
+    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, S3 = 0, C3 = 0;  // S3, C3: sums of sin^3, cos^3 differences
     double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
     // pole in the circle's frame
     const double qn = dot3(q, ck.n), qe1 = dot3(q, ck.e1), qe2 = dot3(q, ck.e2);
@@ -596,7 +596,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     const double Rr = ck.rho * qh;
     const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
     const double sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
-    const double cdl = qh > 0.0 ? qe1 / qh : 1.0, sdl = qh > 0.0 ? qe2 / qh : 0.0;
+    const double iqh = qh > 0.0 ? 1.0 / qh : 0.0;
+    const double cdl = qh > 0.0 ? qe1 * iqh : 1.0, sdl = qe2 * iqh;
     // G(t) - (t - dl)/2 = atan2(Y, X), Y = (k - 1) sin(t - dl), X = (1 + k) + (1 - k) cos(t - dl)
     auto GYX = [&](double c, double s, double& Y, double& X) {
       const double sp = s * cdl - c * sdl, cpp = c * cdl + s * sdl;
@@ -630,11 +631,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
         Is += c1 - c2;
         S2 += 2.0 * (s2 * c2 - s1 * c1);
         Ics += 0.5 * (s2 * s2 - s1 * s1);
-        const double s1c = s1 * s1 * s1, s2c = s2 * s2 * s2, c1c = c1 * c1 * c1, c2c = c2 * c2 * c2;
-        Iccc += (s2 - s2c / 3.0) - (s1 - s1c / 3.0);
-        Isss += (-c2 + c2c / 3.0) - (-c1 + c1c / 3.0);
-        Iccs += -(c2c - c1c) / 3.0;
-        Icss += (s2c - s1c) / 3.0;
+        S3 += s2 * s2 * s2 - s1 * s1 * s1;
+        C3 += c2 * c2 * c2 - c1 * c1 * c1;
         // atan2(Y2, X2) - atan2(Y1, X1) in one atan2: with X1, X2 > 0 (k > 0: X >= 2 min(1, k)) both
         // lie in (-pi/2, pi/2), so their difference is in (-pi, pi) and needs no branch
         double Y1, X1, Y2, X2;
@@ -648,6 +646,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       if (Dt == 0.0 && dG == 0.0) continue;
     }
     const double Icc = 0.5 * Dt + 0.25 * S2, Iss = 0.5 * Dt - 0.25 * S2;
+    // cubic moments: int cos^3 = [sin - sin^3/3], int sin^3 = [-cos + cos^3/3], int cos^2 sin = [-cos^3/3],
+    // int cos sin^2 = [sin^3/3] over the arcs
+    const double S3t = S3 / 3.0, C3t = C3 / 3.0;
+    const double Iccc = Ic - S3t, Isss = Is + C3t, Iccs = -C3t, Icss = S3t;
     // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
     area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
     // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
@@ -677,7 +679,7 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     for (int e = 0; e < 6; ++e) {
       const double Z = cl0 * W2[e], V = cl1 * W31[e] + cl2 * W32[e];
       L2[e] = W2[e] * sv[e];
-      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) / 12.0;
+      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) * (1.0 / 12.0);
     }
     // (J2 + J2^T) c = sum_x v2_x E_x, v2 = L2 cl;  J1
     const double v20 = L2[0] * cl0 + L2[1] * cl1 + L2[2] * cl2;
