@@ -267,11 +267,14 @@ struct PairSearch {
     int ax = 0;
     for (int x = 1; x < 3; ++x)
       if (mx[x] - mn[x] > mx[ax] - mn[ax]) ax = x;
+    // intervals widened by the round-off of their ends and of the exact test: fl(D) < r_a + r_b
+    // implies |dx| < (r_a + r_b)(1 + 3 eps), and c -+ r are rounded relative to |c| + r
     order.resize(n);
     lo.resize(n);
+    auto margin = [&](int i) { return 1e-12 * r[i] + 1e-15 * (std::fabs(c[3 * i + ax]) + r[i]); };
     for (int i = 0; i < n; ++i) {
       order[i] = i;
-      lo[i] = c[3 * i + ax] - r[i];
+      lo[i] = (c[3 * i + ax] - r[i]) - margin(i);
     }
     std::sort(order.begin(), order.end(), [&](int p, int q) { return lo[p] < lo[q] || (lo[p] == lo[q] && p < q); });
     // contiguous copies in sweep order
@@ -279,11 +282,11 @@ struct PairSearch {
     sw.resize(4 * static_cast<std::size_t>(n));
     for (int p = 0; p < n; ++p) {
       const int i = order[p];
-      hi[p] = c[3 * i + ax] + r[i];
+      hi[p] = (c[3 * i + ax] + r[i]) + margin(i);
       for (int x = 0; x < 3; ++x) sw[4 * p + x] = c[3 * i + x];
       sw[4 * p + 3] = r[i];
     }
-    for (int p = 0; p < n; ++p) lo[p] = sw[4 * p + ax] - sw[4 * p + 3];  // lo in sweep order
+    for (int p = 0; p < n; ++p) lo[p] = (sw[4 * p + ax] - sw[4 * p + 3]) - margin(order[p]);  // lo in sweep order
     // the two other axes (the sweep axis' intervals overlap already)
     const int o1 = ax == 0 ? 1 : 0, o2 = ax == 2 ? 1 : 2;
     for (int p = 0; p < n; ++p) {
