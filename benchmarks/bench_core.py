@@ -8,7 +8,8 @@ Writes benchmarks/results/core.json and benchmarks/results/core_k_scaling.png.  
     the core vs the numpy route (``_input.normalize`` + ``_exact_numpy`` + ``finish``,
     which is what ``mass_properties`` ran before the core); also method="sum";
  2. a batch of 10-sphere clumps: clumps/s;
- 3. one 1,000-sphere clump with ~4 overlapping neighbours per sphere: ms;
+ 3. one 1,000-sphere clump with ~4 overlapping neighbours per sphere: ms (median CPU time of 300
+    calls; with CLUMPPROPS_BENCH_BEFORE=<dir of another _core build>, that core alternately);
  4. time per sphere against K, the number of caps per sphere (dense clumps of 150 spheres
     with ~K overlapping neighbours each), with the fitted exponent and the ratio to K^2 log K;
  5. 10^6 random dimers, principal axes included: sum, pairwise, exact in dimers/s.
@@ -31,10 +32,12 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import numpy as np  # noqa: E402
 
 import clumpprops as cp  # noqa: E402
-from clumpprops import _exact_numpy, _input  # noqa: E402
+from clumpprops import _exact_numpy, _input, api  # noqa: E402
 from clumpprops._properties import finish  # noqa: E402
 
 QUICK = "--quick" in sys.argv
+# another build of the core (a directory holding _core*.so), measured alternately with this one in section 3
+BEFORE = os.environ.get("CLUMPPROPS_BENCH_BEFORE")
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "results", "core.json")
 PNG = os.path.join(HERE, "results", "core_k_scaling.png")
@@ -49,6 +52,20 @@ def numpy_exact(c, r, rho=RHO):
     sph = _input.normalize(c, r)
     V, S, Q = _exact_numpy.exact_moments(sph)
     return finish(V, S, Q, sph.origin, rho, "exact", sph.batched)
+
+
+def load_core(directory):
+    """The _core extension module built in `directory` (loaded beside the package's own)."""
+    import glob
+    import importlib.machinery
+    import importlib.util
+
+    path = sorted(glob.glob(os.path.join(directory, "_core*.so")))[0]
+    loader = importlib.machinery.ExtensionFileLoader("_core", path)
+    spec = importlib.util.spec_from_file_location("_core", path, loader=loader)
+    mod = importlib.util.module_from_spec(spec)
+    loader.exec_module(mod)
+    return mod
 
 
 def per_call(f, n):
@@ -133,11 +150,39 @@ res["batch_10_spheres"] = {"clumps": M, "core_per_s_wall": M / tw, "core_per_s_c
 section("3. one 1,000-sphere clump, ~4 overlapping neighbours per sphere")
 cl, rl = grain_clumps(1, 1000, rng, 4.0)
 cl, rl = cl[0], rl[0]
-tw, tc = per_call(lambda: cp.mass_properties(cl, rl, RHO), 5 if QUICK else 30)
+# A single ~1.5 ms call is at the mercy of the shared machine: median and quartiles of the CPU time
+# of 300 calls (5 warm-up calls first).  With CLUMPPROPS_BENCH_BEFORE set (a directory holding another
+# build of _core, e.g. the previous commit's), that core is called alternately with this one, call
+# for call, through the same API, so both see the same load.
+n1000 = 20 if QUICK else 300
+cores = {"core": api._core}
+if BEFORE:
+    cores["before"] = load_core(BEFORE)
+samples = {k: ([], []) for k in cores}
+for k, mod in cores.items():
+    api._core = mod
+    for _ in range(5):
+        cp.mass_properties(cl, rl, RHO)
+for _ in range(n1000):
+    for k, mod in cores.items():
+        api._core = mod
+        t0, p0 = time.perf_counter(), time.process_time()
+        cp.mass_properties(cl, rl, RHO)
+        samples[k][0].append(time.perf_counter() - t0)
+        samples[k][1].append(time.process_time() - p0)
+api._core = cores["core"]
 twn, tcn = once(lambda: numpy_exact(cl, rl), repeat=1)
-print(f"  core {tw * 1e3:.2f} ms wall ({tc * 1e3:.2f} ms CPU), numpy {twn * 1e3:.0f} ms; mean caps/sphere {mean_caps(cl, rl):.2f}")
-res["clump_1000"] = {"core_ms_wall": tw * 1e3, "core_ms_cpu": tc * 1e3, "numpy_ms_wall": twn * 1e3,
-                     "mean_caps_per_sphere": mean_caps(cl, rl)}
+res["clump_1000"] = {"calls": n1000, "numpy_ms_wall": twn * 1e3, "mean_caps_per_sphere": mean_caps(cl, rl)}
+for k, (w, c) in samples.items():
+    q = np.percentile(np.array(c) * 1e3, [25, 50, 75])
+    tw = float(np.median(w)) * 1e3
+    print(f"  {k:6s} {q[1]:.2f} ms CPU (quartiles {q[0]:.2f} .. {q[2]:.2f}), {tw:.2f} ms wall; median of {n1000} calls")
+    pre = "core" if k == "core" else "before"
+    res["clump_1000"].update({f"{pre}_ms_cpu": float(q[1]), f"{pre}_ms_cpu_q25": float(q[0]),
+                              f"{pre}_ms_cpu_q75": float(q[2]), f"{pre}_ms_wall": tw})
+if BEFORE:
+    res["clump_1000"]["before_core_dir"] = BEFORE
+print(f"  numpy {twn * 1e3:.0f} ms; mean caps/sphere {mean_caps(cl, rl):.2f}")
 
 # 4 ------------------------------------------------------------------------------------
 section("4. time per sphere against K (caps per sphere)")

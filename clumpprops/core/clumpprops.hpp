@@ -95,15 +95,23 @@ inline double diamond(double x, double y) {
 }
 
 // ------------------------------------------------------------------ pair search
-// Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps; above, sort and sweep
-// along the axis of largest extent (a pair can only overlap if its intervals c_x +- r overlap),
-// so a clump where each sphere meets a bounded number of others costs O(N log N + overlaps).
+// Overlapping pairs (D < r_a + r_b), a < b.  All pairs for small clumps.  Above, a uniform grid
+// (cell list) with cells at least as wide as the largest r_a + r_b: a pair can only overlap if its
+// cells are neighbours, so a clump where each sphere meets a bounded number of others costs
+// O(N + overlaps).  Where a grid does not suit (radii too uneven: cells sized by the largest
+// sphere would hold many small ones; extreme magnitudes), sort and sweep along the axis of largest
+// extent (a pair can only overlap if its intervals c_x +- r overlap): O(N log N + candidates).
 // Candidates are screened with comparisons that only reject pairs the exact test
 // fl(sqrt(dx^2 + dy^2 + dz^2)) < r_a + r_b rejects too (margins far above round-off, and only
-// where no square underflows), so the pairs and their order are those of the plain loops.
+// where no square underflows), so the pairs are those of the plain loops; the grid also emits them
+// in the plain loops' order (a, then b), the sweep in its own order (the exact method does not
+// depend on it; the pairwise method's sums do, to round-off).
 struct PairSearch {
   std::vector<int> order;
   std::vector<double> lo, hi, sw;  // sweep order: interval ends; (c_x, c_y, c_z, r) of each sphere
+  std::vector<int> cell, cell_start, gidx;  // grid: cell of each sphere; CSR of the cells; spheres in cell order
+  std::vector<double> gsw;                  // (c_x, c_y, c_z, r) in cell order
+  std::vector<Pair> tmp;                    // pairs in the grid's order
 
   // exact overlap test of spheres a < b, and the pair (D, unit direction)
   static bool test(const double* c, const double* r, int a, int b, Pair& p) {
@@ -134,6 +142,114 @@ struct PairSearch {
     if (test(c, r, a, b, p)) out.push_back(p);
   }
 
+  // Uniform grid; false (nothing done) where it does not suit.
+  bool grid(const double* c, const double* r, int n, std::vector<Pair>& out) {
+    double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]}, rmax = r[0], rsum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      for (int x = 0; x < 3; ++x) {
+        mn[x] = std::min(mn[x], c[3 * i + x]);
+        mx[x] = std::max(mx[x], c[3 * i + x]);
+      }
+      rmax = std::max(rmax, r[i]);
+      rsum += r[i];
+    }
+    // radii within a factor 3 of their mean (else many small spheres per cell), no square of a
+    // distance that can underflow across a cell (the exact test's underflow cases stay in one
+    // neighbourhood), nothing that overflows
+    if (n > 100000000 || !(rmax <= 3.0 * (rsum / n)) || !(rmax > 1e-140 && rmax < 1e100)) return false;
+    double ext[3];
+    for (int x = 0; x < 3; ++x) {
+      ext[x] = mx[x] - mn[x];
+      if (!(ext[x] < 1e300)) return false;
+    }
+    // cell width h: every overlapping pair has |dx| <= D <= fl(D) (1 + 3 eps) < 2 rmax (1 + 3 eps)
+    // per axis; the 1e-6 margin keeps such pairs in neighbouring cells despite the rounding of
+    // (c - min) * (1 / h) (relative 3.4e-16 of a quotient below 4 N + 64 < 1e9).  At most ~4 N cells.
+    const double limit = 4.0 * n + 64.0;
+    double h = std::max(2.0 * rmax * (1.0 + 1e-6), std::max(ext[0], std::max(ext[1], ext[2])) / limit);
+    double dim[3];
+    for (;;) {
+      for (int x = 0; x < 3; ++x) dim[x] = std::floor(ext[x] / h) + 1.0;
+      if (dim[0] * dim[1] * dim[2] <= limit) break;
+      h *= 1.25;
+    }
+    const int nx = static_cast<int>(dim[0]), ny = static_cast<int>(dim[1]), nz = static_cast<int>(dim[2]);
+    const int ncell = nx * ny * nz;
+    const double inv_h = 1.0 / h;
+    int* cl = filled(cell, n, 0);
+    int* cs = filled(cell_start, static_cast<std::size_t>(ncell) + 1, 0);
+    int ic[3];
+    for (int i = 0; i < n; ++i) {
+      for (int x = 0; x < 3; ++x) ic[x] = std::min(static_cast<int>((c[3 * i + x] - mn[x]) * inv_h), static_cast<int>(dim[x]) - 1);
+      cl[i] = (ic[2] * ny + ic[1]) * nx + ic[0];
+      ++cs[cl[i] + 1];
+    }
+    for (int k = 0; k < ncell; ++k) cs[k + 1] += cs[k];
+    if (gidx.size() < static_cast<std::size_t>(n)) gidx.resize(n);
+    if (gsw.size() < 4 * static_cast<std::size_t>(n)) gsw.resize(4 * static_cast<std::size_t>(n));
+    if (order.size() < static_cast<std::size_t>(ncell)) order.resize(ncell);
+    int* fillp = order.data();  // fill pointers
+    for (int k = 0; k < ncell; ++k) fillp[k] = cs[k];
+    for (int i = 0; i < n; ++i) {  // spheres of a cell in index order
+      const int q = fillp[cl[i]]++;
+      gidx[q] = i;
+      for (int x = 0; x < 3; ++x) gsw[4 * q + x] = c[3 * i + x];
+      gsw[4 * q + 3] = r[i];
+    }
+    // half shell: each sphere against the later spheres of its cell and the next cell in x (one
+    // contiguous range), and the three cells of the next row in y and the nine of the next layer
+    // in z; the pairs found go to tmp, then in the plain loops' order (a, then b) to out
+    const int* gi = gidx.data();
+    const double* g = gsw.data();
+    tmp.clear();
+    auto scan = [&](int q, int q0, int q1) {
+      const double* sa = g + 4 * q;
+      const double ax = sa[0], ay = sa[1], az = sa[2], ra = sa[3];
+      for (int u = q0; u < q1; ++u) {
+        // the exact test's own rejection (same operands, same rounding as in test), before its call
+        const double* sb = g + 4 * u;
+        const double dx = sb[0] - ax, dy = sb[1] - ay, dz = sb[2] - az;
+        const double s = ra + sb[3];
+        const double s2 = s * s;
+        if (dx * dx + dy * dy + dz * dz > s2 * (1.0 + 1e-12) && s2 > 1e-290) continue;
+        const int i = gi[q], j = gi[u];
+        test(c, r, std::min(i, j), std::max(i, j), tmp);
+      }
+    };
+    for (int z = 0; z < nz; ++z)
+      for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x) {
+          const int k = (z * ny + y) * nx + x;
+          const int xm = std::max(x - 1, 0), xp = std::min(x + 1, nx - 1);
+          for (int q = cs[k]; q < cs[k + 1]; ++q) {
+            scan(q, q + 1, cs[(z * ny + y) * nx + xp + 1]);
+            if (y + 1 < ny) {
+              const int row = (z * ny + y + 1) * nx;
+              scan(q, cs[row + xm], cs[row + xp + 1]);
+            }
+            if (z + 1 < nz)
+              for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, ny - 1); ++yy) {
+                const int row = ((z + 1) * ny + yy) * nx;
+                scan(q, cs[row + xm], cs[row + xp + 1]);
+              }
+          }
+        }
+    // counting sort by a, then b within each a (a few pairs each)
+    const int P = static_cast<int>(tmp.size());
+    int* cnt = filled(cell, n + 1, 0);  // the cells are no longer needed
+    for (int t = 0; t < P; ++t) ++cnt[tmp[t].a + 1];
+    for (int i = 0; i < n; ++i) cnt[i + 1] += cnt[i];
+    out.resize(P);
+    for (int t = 0; t < P; ++t) out[cnt[tmp[t].a]++] = tmp[t];
+    // cnt[i] is now the end of a = i
+    for (int i = 0, b0 = 0; i < n; ++i) {
+      const int b1 = cnt[i];
+      if (b1 - b0 > 1) small_sort(out.data() + b0, b1 - b0, [](const Pair& p, const Pair& q) { return p.b < q.b; });
+      b0 = b1;
+    }
+    return true;
+  }
+
   void overlapping(const double* c, const double* r, int n, std::vector<Pair>& out) {
     out.clear();
     if (n <= 40) {
@@ -141,6 +257,7 @@ struct PairSearch {
         for (int j = i + 1; j < n; ++j) test(c, r, i, j, out);
       return;
     }
+    if (grid(c, r, n, out)) return;
     double mn[3] = {c[0], c[1], c[2]}, mx[3] = {c[0], c[1], c[2]};
     for (int i = 1; i < n; ++i)
       for (int x = 0; x < 3; ++x) {
@@ -150,11 +267,14 @@ struct PairSearch {
     int ax = 0;
     for (int x = 1; x < 3; ++x)
       if (mx[x] - mn[x] > mx[ax] - mn[ax]) ax = x;
+    // intervals widened by the round-off of their ends and of the exact test: fl(D) < r_a + r_b
+    // implies |dx| < (r_a + r_b)(1 + 3 eps), and c -+ r are rounded relative to |c| + r
     order.resize(n);
     lo.resize(n);
+    auto margin = [&](int i) { return 1e-12 * r[i] + 1e-15 * (std::fabs(c[3 * i + ax]) + r[i]); };
     for (int i = 0; i < n; ++i) {
       order[i] = i;
-      lo[i] = c[3 * i + ax] - r[i];
+      lo[i] = (c[3 * i + ax] - r[i]) - margin(i);
     }
     std::sort(order.begin(), order.end(), [&](int p, int q) { return lo[p] < lo[q] || (lo[p] == lo[q] && p < q); });
     // contiguous copies in sweep order
@@ -162,11 +282,11 @@ struct PairSearch {
     sw.resize(4 * static_cast<std::size_t>(n));
     for (int p = 0; p < n; ++p) {
       const int i = order[p];
-      hi[p] = c[3 * i + ax] + r[i];
+      hi[p] = (c[3 * i + ax] + r[i]) + margin(i);
       for (int x = 0; x < 3; ++x) sw[4 * p + x] = c[3 * i + x];
       sw[4 * p + 3] = r[i];
     }
-    for (int p = 0; p < n; ++p) lo[p] = sw[4 * p + ax] - sw[4 * p + 3];  // lo in sweep order
+    for (int p = 0; p < n; ++p) lo[p] = (sw[4 * p + ax] - sw[4 * p + 3]) - margin(order[p]);  // lo in sweep order
     // the two other axes (the sweep axis' intervals overlap already)
     const int o1 = ax == 0 ? 1 : 0, o2 = ax == 2 ? 1 : 2;
     for (int p = 0; p < n; ++p) {
@@ -374,7 +494,7 @@ inline void Arrangement::choose_pole(int K, double* q) {
 }
 
 inline void Arrangement::compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out) {
-  C.resize(K);
+  if (C.size() < static_cast<std::size_t>(K)) C.resize(K);  // grows only: no per-call construction
   for (int k = 0; k < K; ++k) {
     Circle& c = C[k];
     for (int x = 0; x < 3; ++x) c.n[x] = caps[k].n[x];
@@ -470,7 +590,7 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
     Event* E = ev.data() + static_cast<std::size_t>(k) * stride;
     const int P = nev_[k];
-    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, Iccc = 0, Isss = 0, Iccs = 0, Icss = 0;
+    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, S3 = 0, C3 = 0;  // S3, C3: sums of sin^3, cos^3 differences
     double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
     // pole in the circle's frame
     const double qn = dot3(q, ck.n), qe1 = dot3(q, ck.e1), qe2 = dot3(q, ck.e2);
@@ -479,7 +599,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     const double Rr = ck.rho * qh;
     const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
     const double sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
-    const double cdl = qh > 0.0 ? qe1 / qh : 1.0, sdl = qh > 0.0 ? qe2 / qh : 0.0;
+    const double iqh = qh > 0.0 ? 1.0 / qh : 0.0;
+    const double cdl = qh > 0.0 ? qe1 * iqh : 1.0, sdl = qe2 * iqh;
     // G(t) - (t - dl)/2 = atan2(Y, X), Y = (k - 1) sin(t - dl), X = (1 + k) + (1 - k) cos(t - dl)
     auto GYX = [&](double c, double s, double& Y, double& X) {
       const double sp = s * cdl - c * sdl, cpp = c * cdl + s * sdl;
@@ -513,11 +634,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
         Is += c1 - c2;
         S2 += 2.0 * (s2 * c2 - s1 * c1);
         Ics += 0.5 * (s2 * s2 - s1 * s1);
-        const double s1c = s1 * s1 * s1, s2c = s2 * s2 * s2, c1c = c1 * c1 * c1, c2c = c2 * c2 * c2;
-        Iccc += (s2 - s2c / 3.0) - (s1 - s1c / 3.0);
-        Isss += (-c2 + c2c / 3.0) - (-c1 + c1c / 3.0);
-        Iccs += -(c2c - c1c) / 3.0;
-        Icss += (s2c - s1c) / 3.0;
+        S3 += s2 * s2 * s2 - s1 * s1 * s1;
+        C3 += c2 * c2 * c2 - c1 * c1 * c1;
         // atan2(Y2, X2) - atan2(Y1, X1) in one atan2: with X1, X2 > 0 (k > 0: X >= 2 min(1, k)) both
         // lie in (-pi/2, pi/2), so their difference is in (-pi, pi) and needs no branch
         double Y1, X1, Y2, X2;
@@ -531,6 +649,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       if (Dt == 0.0 && dG == 0.0) continue;
     }
     const double Icc = 0.5 * Dt + 0.25 * S2, Iss = 0.5 * Dt - 0.25 * S2;
+    // cubic moments: int cos^3 = [sin - sin^3/3], int sin^3 = [-cos + cos^3/3], int cos^2 sin = [-cos^3/3],
+    // int cos sin^2 = [sin^3/3] over the arcs
+    const double S3t = S3 / 3.0, C3t = C3 / 3.0;
+    const double Iccc = Ic - S3t, Isss = Is + C3t, Iccs = -C3t, Icss = S3t;
     // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
     area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
     // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
@@ -560,7 +682,7 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     for (int e = 0; e < 6; ++e) {
       const double Z = cl0 * W2[e], V = cl1 * W31[e] + cl2 * W32[e];
       L2[e] = W2[e] * sv[e];
-      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) / 12.0;
+      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) * (1.0 / 12.0);
     }
     // (J2 + J2^T) c = sum_x v2_x E_x, v2 = L2 cl;  J1
     const double v20 = L2[0] * cl0 + L2[1] * cl1 + L2[2] * cl2;
