@@ -53,6 +53,9 @@ _TAU_NESTED = 1e-13
 # two cap circles on one unit sphere closer than this everywhere are one circle (see
 # _coincident_caps, _uncovered_caps and docs/exact_method.md, section 2a)
 _COINCIDENT = 1e-13
+# two circles of one unit sphere touch (do not cross) when the sagittas rho (1 - |cos alpha|) of
+# the arcs between their crossing points are both at most this (docs/exact_method.md, 2a, rule S)
+_TOUCHING = 1e-13
 
 
 def _poles():
@@ -169,24 +172,45 @@ def _sphere_surface_moments(n, h, rho):
     C, K = h.shape
     e1, e2 = _basis(n)
     # --- circle k against cap j: f_kj(t) = u_k(t).n_j - h_j = m_kj + R_kj cos(t - phi_kj)
+    # without cancellation (docs/exact_method.md, section 2a, rule X): with s = sgn(g) and
+    # d = n_j - s n_k, A, B = rho_k e1.d, rho_k e2.d and m = (s h_k - h_j) - s h_k |d|^2 / 2,
+    # s h_k - h_j from the accurate 1 - h = rho^2 / (1 + h) and 1 + h = rho^2 / (1 - h) where it cancels
     g = np.einsum("ckx,cjx->ckj", n, n)
-    A = rho[:, :, None] * np.einsum("ckx,cjx->ckj", e1, n)
-    B = rho[:, :, None] * np.einsum("ckx,cjx->ckj", e2, n)
+    s = np.where(g >= 0.0, 1.0, -1.0)
+    d = n[:, None, :, :] - s[..., None] * n[:, :, None, :]  # [c, k, j]: n_j - s n_k
+    half_d2 = 0.5 * np.einsum("ckjx,ckjx->ckj", d, d)
+    A = rho[:, :, None] * np.einsum("ckx,ckjx->ckj", e1, d)
+    B = rho[:, :, None] * np.einsum("ckx,ckjx->ckj", e2, d)
     R = np.hypot(A, B)
     phi = np.arctan2(B, A)
-    m = h[:, :, None] * g - h[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(h > 0.0, rho * rho / (1.0 + h), 1.0 - h)  # 1 - h
+        v = np.where(h < 0.0, rho * rho / (1.0 - h), 1.0 + h)  # 1 + h
+    hk, hj, wk, wj, vk, vj = h[:, :, None], h[:, None, :], w[:, :, None], w[:, None, :], v[:, :, None], v[:, None, :]
+    dh_same = np.where((hk > 0) & (hj > 0), wj - wk, np.where((hk < 0) & (hj < 0), vk - vj, hk - hj))
+    dh_opp = np.where((hk > 0) & (hj < 0), wk - vj, np.where((hk < 0) & (hj > 0), wj - vk, -(hk + hj)))
+    m = np.where(s > 0, dh_same, dh_opp) - s * hk * half_d2
     pair = np.broadcast_to(~np.eye(K, dtype=bool), (C, K, K))
     with np.errstate(divide="ignore", invalid="ignore"):
         cosarg = -m / R
     crosses = pair & (R > 0) & (np.abs(cosarg) < 1.0)
+    # rule S: touching circles (sagitta rho (1 - |cos alpha|) of the arcs between the two crossing
+    # points at most _TOUCHING on both circles) do not cross
+    with np.errstate(invalid="ignore"):
+        sag = rho[:, :, None] * (1.0 - np.abs(cosarg))
+        touching = (sag <= _TOUCHING) & (np.swapaxes(sag, 1, 2) <= _TOUCHING)
+    crosses &= ~touching
     ac = np.arccos(np.clip(cosarg, -1.0, 1.0))
     two_pi = 2.0 * np.pi
     t_a = phi + ac
     t_b = phi - ac
-    # Each crossing point is computed once, on the lower-slot circle k < j, and located on
-    # circle j from that same 3-D point: the boundary of the union of caps then closes
-    # exactly even where two circles nearly coincide (crossing angles ill-conditioned).
-    upper = np.triu(np.ones((K, K), dtype=bool), 1)[None]
+    # Each crossing point is computed once, on the circle of the pair with the smaller radius
+    # (the lower slot on a tie: the better-conditioned one, docs/exact_method.md, 2a, rule S),
+    # and located on the other circle from that same 3-D point: the boundary of the union of
+    # caps then closes exactly even where two circles nearly coincide (crossing angles
+    # ill-conditioned).  upper[c, k, j]: computed on k.
+    rk, rj = rho[:, :, None], rho[:, None, :]
+    upper = (rk < rj) | ((rk == rj) & np.triu(np.ones((K, K), dtype=bool), 1)[None])
     crosses = np.where(upper, crosses, np.swapaxes(crosses, 1, 2))
     # (no two circles here coincide: _uncovered_caps removed such caps, see _coincident_caps)
 

@@ -32,6 +32,9 @@ constexpr double kRhoTangent = 1e-6;
 constexpr double kTauNested = 1e-13;
 // two cap circles of one unit sphere closer than this everywhere are one circle (prune_caps)
 constexpr double kCoincidentCaps = 1e-13;
+// two circles of one unit sphere touch (do not cross) when the sagittas rho (1 - |cos alpha|) of
+// the arcs between their crossing points are both at most this (rule S, docs/exact_method.md 2a)
+constexpr double kTouchingCircles = 1e-13;
 // safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
 
@@ -389,6 +392,7 @@ class Arrangement {
   struct Circle {
     double n[3], e1[3], e2[3];
     double h, rho;
+    double om, op;  // 1 - h, 1 + h without cancellation (rho^2 / (1 +- h) where they are small)
     int rank;
   };
   struct Event {
@@ -501,6 +505,8 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     c.h = caps[k].h;
     c.rho = caps[k].rho;
     c.rank = caps[k].other;
+    c.om = c.h > 0.0 ? c.rho * c.rho / (1.0 + c.h) : 1.0 - c.h;
+    c.op = c.h < 0.0 ? c.rho * c.rho / (1.0 - c.h) : 1.0 + c.h;
     basis(c.n, c.e1, c.e2);
   }
   const std::size_t KK = static_cast<std::size_t>(K) * K;
@@ -512,43 +518,82 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
   int* nev_ = filled(nev, K, 0);
   int* egl = filled(enter_gt_leave, K, 0);
   double* M_ = M.data();
-  // every pair of circles once (k < j): f_kj = M_kj + A cos t + B sin t on k (its frame), and the
-  // mean M_jk of f_jk; crossings computed on the lower circle k and located on j from the same point
+  // every pair of circles once (k < j): the means M_kj, M_jk of f_kj = M_kj + A cos t + B sin t (on
+  // k, in its frame) and of f_jk, without cancellation (docs/exact_method.md, section 2a): with
+  // s = sgn(n_k.n_j) and d = n_j - s n_k (small for nearly (anti)parallel axes, exact to an ulp),
+  //   A_kj, B_kj = rho_k e1_k.d, rho_k e2_k.d   (e1, e2 are orthogonal to n_k: the s n_k part is 0)
+  //   M_kj = h_k g - h_j = (s h_k - h_j) - s h_k |d|^2/2,   g = s (1 - |d|^2/2),
+  // s h_k - h_j from 1 - h and 1 + h (om, op: relative accuracy) where it cancels; the other
+  // orientation uses n_k - s n_j = -s d and s h_j - h_k = -s (s h_k - h_j), both exact.  The
+  // dot-product form lost ~1e-16 absolute in M and A, B, i.e. a relative 1e-16 / |n_k -+ n_j|.
+  // Each crossing is computed once, on the circle of the pair with the smaller radius rho (the
+  // lower one on a tie: its position error ~ rho eps / sin(alpha), rho sin(alpha) the half-chord
+  // shared by both circles, is the smaller one), and located on the other from the same point.
   for (int k = 0; k < K; ++k) {
     const Circle& ck = C[k];
-    Event* evk = ev.data() + static_cast<std::size_t>(k) * stride;
     for (int j = k + 1; j < K; ++j) {
       const Circle& cj = C[j];
       const std::size_t kj = static_cast<std::size_t>(k) * K + j, jk = static_cast<std::size_t>(j) * K + k;
       const double g = dot3(ck.n, cj.n);
-      const double a = ck.rho * dot3(ck.e1, cj.n), b = ck.rho * dot3(ck.e2, cj.n);
-      const double Rk = std::sqrt(a * a + b * b), mk = ck.h * g - cj.h;
+      const double s = g >= 0.0 ? 1.0 : -1.0;
+      const double d[3] = {cj.n[0] - s * ck.n[0], cj.n[1] - s * ck.n[1], cj.n[2] - s * ck.n[2]};
+      const double half_d2 = 0.5 * dot3(d, d);
+      // s h_k - h_j = a - b (a = s h_k, b = h_j): (1 - b) - (1 - a) where a, b > 0, (1 + a) - (1 + b) where
+      // a, b < 0, a - b otherwise (no cancellation there); the oracle's values, without a branch on s
+      const double a_ = s * ck.h, b_ = cj.h;
+      const double u = 0.5 + 0.5 * s;  // 1 or 0: 1 - a = om_k (s = 1) or op_k (s = -1), 1 + a the other
+      const double one_m_a = u * ck.om + (1.0 - u) * ck.op, one_p_a = u * ck.op + (1.0 - u) * ck.om;
+      const double dpp = cj.om - one_m_a, dnn = one_p_a - cj.op, dmix = a_ - b_;
+      const double dh = (a_ > 0.0 && b_ > 0.0) ? dpp : ((a_ < 0.0 && b_ < 0.0) ? dnn : dmix);
+      const double mk = dh - s * ck.h * half_d2, mj = -s * dh - s * cj.h * half_d2;
       M_[kj] = mk;
-      M_[jk] = cj.h * g - ck.h;
-      if (Rk <= kCoincident && std::fabs(mk) <= kCoincident && g > 0.0) {
-        coinc_[kj] = coinc_[jk] = 1;  // one circle, caps on the same side
-        continue;
+      M_[jk] = mj;
+      if (g > 0.0 && std::fabs(mk) <= kCoincident) {
+        const double ak = ck.rho * dot3(ck.e1, d), bk = ck.rho * dot3(ck.e2, d);
+        if (std::sqrt(ak * ak + bk * bk) <= kCoincident) {
+          coinc_[kj] = coinc_[jk] = 1;  // one circle, caps on the same side
+          continue;
+        }
       }
-      if (!(Rk > 0.0)) continue;
-      const double ca = -mk / Rk;
+      // computed on circle a (the smaller), located on circle b; d_ab = sd * d
+      const bool on_j = cj.rho < ck.rho;
+      const int ia = on_j ? j : k, ib = on_j ? k : j;
+      const Circle& ca_c = on_j ? cj : ck;
+      const Circle& cb_c = on_j ? ck : cj;
+      const double sd = on_j ? -s : 1.0;
+      const double ma = on_j ? mj : mk;
+      const double a = sd * (ca_c.rho * dot3(ca_c.e1, d)), b = sd * (ca_c.rho * dot3(ca_c.e2, d));
+      const double Ra = std::sqrt(a * a + b * b);
+      if (!(Ra > 0.0)) continue;
+      const double ca = -ma / Ra;
       if (!(std::fabs(ca) < 1.0)) continue;
+      // rule S: circles that touch (the arcs between their two crossing points bulge by at most
+      // kTouchingCircles from the chord, on both circles) do not cross; each is then covered by
+      // the other cap or not, by the sign of M (docs/exact_method.md, section 2a)
+      if (ca_c.rho * (1.0 - std::fabs(ca)) <= kTouchingCircles) {
+        const double ab = cb_c.rho * dot3(cb_c.e1, d), bb = cb_c.rho * dot3(cb_c.e2, d);
+        const double Rb = std::sqrt(ab * ab + bb * bb);
+        const double cb_a = Rb > 0.0 ? -(on_j ? mk : mj) / Rb : 1.0;
+        if (cb_c.rho * (1.0 - std::fabs(cb_a)) <= kTouchingCircles) continue;
+      }
       cross_[kj] = cross_[jk] = 1;
       const double sa = std::sqrt((1.0 - ca) * (1.0 + ca));
-      const double cp = a / Rk, sp = b / Rk;
-      // leave at phi + ac, enter at phi - ac (f_kj = M + R cos(t - phi) decreases through 0 at phi + ac)
+      const double cp = a / Ra, sp = b / Ra;
+      // leave at phi + ac, enter at phi - ac (f_ab = M + R cos(t - phi) decreases through 0 at phi + ac)
       const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
       const double ce = cp * ca + sp * sa, se = sp * ca - cp * sa;
       double Pl[3], Pe[3];
       for (int x = 0; x < 3; ++x) {
-        Pl[x] = ck.h * ck.n[x] + ck.rho * (cl * ck.e1[x] + sl * ck.e2[x]);
-        Pe[x] = ck.h * ck.n[x] + ck.rho * (ce * ck.e1[x] + se * ck.e2[x]);
+        Pl[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (cl * ca_c.e1[x] + sl * ca_c.e2[x]);
+        Pe[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (ce * ca_c.e1[x] + se * ca_c.e2[x]);
       }
       const double kl = diamond(cl, sl), ke = diamond(ce, se);
-      evk[nev_[k]++] = {kl, cl, sl, -1};
-      evk[nev_[k]++] = {ke, ce, se, +1};
-      if (ke > kl) ++egl[k];
-      // on j: where k leaves cap j, j enters cap k, and vice versa
-      double xl = dot3(Pl, cj.e1), yl = dot3(Pl, cj.e2), xe = dot3(Pe, cj.e1), ye = dot3(Pe, cj.e2);
+      Event* eva = ev.data() + static_cast<std::size_t>(ia) * stride;
+      eva[nev_[ia]++] = {kl, cl, sl, -1};
+      eva[nev_[ia]++] = {ke, ce, se, +1};
+      if (ke > kl) ++egl[ia];
+      // on b: where a leaves cap b, b enters cap a, and vice versa
+      double xl = dot3(Pl, cb_c.e1), yl = dot3(Pl, cb_c.e2), xe = dot3(Pe, cb_c.e1), ye = dot3(Pe, cb_c.e2);
       const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
       if (nl > 0.0) {
         xl /= nl;
@@ -559,10 +604,10 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
         ye /= ne;
       }
       const double jl = diamond(xl, yl), je = diamond(xe, ye);
-      Event* evj = ev.data() + static_cast<std::size_t>(j) * stride;
-      evj[nev_[j]++] = {jl, xl, yl, +1};
-      evj[nev_[j]++] = {je, xe, ye, -1};
-      if (jl > je) ++egl[j];
+      Event* evb = ev.data() + static_cast<std::size_t>(ib) * stride;
+      evb[nev_[ib]++] = {jl, xl, yl, +1};
+      evb[nev_[ib]++] = {je, xe, ye, -1};
+      if (jl > je) ++egl[ib];
     }
   }
   // pole for the area form
