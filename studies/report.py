@@ -168,6 +168,17 @@ def answers_section(lines, specs, sph, effect_rows=()):
             lines.append(f"* **First version, paper scale** (400 s runs from the paper's zero-spin start, OLS on MSD lags, "
                          f"{u.n_seeds} seeds): uncorrected vs exact {pct(u.relative)}, 95 % CI "
                          f"{interval(u.relative_ci_low, u.relative_ci_high)}: {verdict(u.relative_ci_low, u.relative_ci_high)}.")
+    rd = os.path.join(RESULTS, "granular_gas", "ratio_D.csv")
+    if os.path.exists(rd):
+        q = pd.read_csv(rd)
+        u = q[q.case == "uncorrected"]
+        if len(u):
+            u = u.iloc[0]
+            within = u.ci_low <= 0.10 <= u.ci_high
+            lines.append(f"* **The paper's \"about 10 %\"** (the uncorrected clumps' share of the sphere-clump gap in D, "
+                         f"first version, paper scale): {u.ratio:+.3f} [{u.ci_low:+.3f}, {u.ci_high:+.3f}] over "
+                         f"{u.n_seeds} seeds, which " + ("contains 0.10 and 0: not resolved." if within and u.ci_low <= 0
+                                                         else "contains 0.10." if within else "excludes 0.10."))
     for r in sph:
         lo, hi = r["ratio_hertz_ci_low"] - 1, r["ratio_hertz_ci_high"] - 1
         consistent = lo <= 0 <= hi
