@@ -75,13 +75,9 @@ def plot_all(results, log=print):
                     _bars(ax, x[has], g[has], color=CASE_COLORS[case], label=case)
             ax.set_xticks(np.arange(len(moduli)))
             ax.set_xticklabels([f"E = {e:.0e} Pa" for e in moduli])
-            ax.axhline(0, color="k", lw=0.8)
-            ax.set_ylabel("D_case / D_exact − 1 (%), 95 % CI")
-            ax.set_title("Paper's dimer, paired protocol: mass vs inertia, by stiffness", fontsize=10)
-            ax.legend(fontsize=8)
-            ax.grid(alpha=0.3)
-            fig.tight_layout()
-            made.append(_save(fig, results, "decomposition.png"))
+            made.append(_finish(fig, ax, 0, "D_case / D_exact − 1 (%), 95 % CI",
+                                "Paper's dimer, paired protocol: mass vs inertia, by stiffness", results,
+                                "decomposition.png"))
 
         unc = eff[eff["case"] == "uncorrected"]
         if len(unc) and unc["protocol"].nunique() > 1:
@@ -98,13 +94,8 @@ def plot_all(results, log=print):
                     label="equal energy, hard particles: sqrt(m_exact/m_sum) − 1")
             ax.set_xticks(np.arange(len(labels)))
             ax.set_xticklabels([f"{s}\nD/d_s = {o}" if o not in ("", "nan") else s for s, o in labels], fontsize=8)
-            ax.axhline(0, color="k", lw=0.8)
-            ax.set_ylabel("D_uncorrected / D_exact − 1 (%), 95 % CI")
-            ax.set_title("The protocol effect: same velocities vs same energy", fontsize=10)
-            ax.legend(fontsize=8)
-            ax.grid(alpha=0.3)
-            fig.tight_layout()
-            made.append(_save(fig, results, "protocol.png"))
+            made.append(_finish(fig, ax, 0, "D_uncorrected / D_exact − 1 (%), 95 % CI",
+                                "The protocol effect: same velocities vs same energy", results, "protocol.png"))
 
     sph = _read(os.path.join(results, "sphere_gas.csv"))
     if sph is not None and len(sph):
@@ -116,18 +107,24 @@ def plot_all(results, log=print):
             yerr = np.vstack([y - sph[f"ratio_{name}_ci_low"].to_numpy(), sph[f"ratio_{name}_ci_high"].to_numpy() - y])
             ax.errorbar(e, y, yerr=yerr, fmt="o", capsize=3, color=col, label=lab)
         ax.plot(e, sph["d_hertz_boltzmann"] / sph["d_hard_boltzmann"], "kx", label="theory: Hertz / hard spheres")
-        ax.axhline(1, color="k", lw=0.8)
         ax.set_xscale("log")
         ax.set_xlabel("Young's modulus E (Pa)")
-        ax.set_ylabel("D ratio, 95 % CI over seeds")
-        ax.set_title("Sphere gas against kinetic theory", fontsize=10)
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
-        made.append(_save(fig, results, "sphere_gas.png"))
+        made.append(_finish(fig, ax, 1, "D ratio, 95 % CI over seeds", "Sphere gas against kinetic theory",
+                            results, "sphere_gas.png"))
     for m in made:
         log(f"[plot] {m}")
     return made
+
+
+def _finish(fig, ax, ref, ylabel, title, results, name):
+    """The single-panel figures' common dressing (reference line at ``ref``, labels, legend, grid), saved."""
+    ax.axhline(ref, color="k", lw=0.8)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, results, name)
 
 
 def _save(fig, results, name):
