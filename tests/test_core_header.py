@@ -34,13 +34,19 @@ int main() {
 """
 
 
+def _compile(tmp_path, name, program, opt):
+    """Build a standalone C++17 program that includes only the header (warnings are errors)."""
+    src = tmp_path / f"{name}.cpp"
+    src.write_text(program)
+    exe = tmp_path / name
+    subprocess.run(["g++", "-std=c++17", opt, "-Wall", "-Wextra", "-Werror", f"-I{HPP.parent}", str(src), "-o", str(exe)],
+                   check=True, capture_output=True, text=True)
+    return exe
+
+
 @pytest.mark.skipif(shutil.which("g++") is None, reason="no C++ compiler")
 def test_header_compiles_standalone_and_agrees_with_python(tmp_path):
-    src = tmp_path / "use_core.cpp"
-    src.write_text(PROGRAM)
-    exe = tmp_path / "use_core"
-    subprocess.run(["g++", "-std=c++17", "-O1", "-Wall", "-Wextra", "-Werror", f"-I{HPP.parent}", str(src), "-o", str(exe)],
-                   check=True, capture_output=True, text=True)
+    exe = _compile(tmp_path, "use_core", PROGRAM, "-O1")
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split("\n")
     a = np.array(out[0].split(), float)
     mp = cp.mass_properties([[0.0, 0.0, 0.0], [0.7, 0.1, 0.0], [0.3, 0.6, 0.2]], [0.5, 0.45, 0.4], 1140.0)
@@ -114,11 +120,7 @@ int main() {
 
 @pytest.mark.skipif(shutil.which("g++") is None, reason="no C++ compiler")
 def test_pair_search_grid_and_sweep_match_all_pairs(tmp_path):
-    src = tmp_path / "pairs.cpp"
-    src.write_text(PAIRS_PROGRAM)
-    exe = tmp_path / "pairs"
-    subprocess.run(["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{HPP.parent}", str(src), "-o", str(exe)],
-                   check=True, capture_output=True, text=True)
+    exe = _compile(tmp_path, "pairs", PAIRS_PROGRAM, "-O2")
     run = subprocess.run([str(exe)], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout
     grid, sweep = map(int, run.stdout.split())

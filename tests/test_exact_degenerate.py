@@ -396,6 +396,20 @@ def _through_one_point(rng, kind):
     return np.array(c), np.array(r)
 
 
+def _assert_invariant_under_random_motion(rng, c, r):
+    """exact() of the clump and of its image under a random rotation + translation agree to 1e-12
+    (plus the translation's round-off) in mass, centre of mass and inertia."""
+    L = extent(c, r)
+    a = exact(c, r)
+    R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    t = rng.normal(size=3)
+    b = exact(c @ R.T + t, r)
+    tol = 1e-12 + 64 * np.finfo(float).eps * np.abs(t).max() / L
+    err = max(abs(b.mass / a.mass - 1), np.max(np.abs(R.T @ (b.center_of_mass - t) - a.center_of_mass)) / L,
+              rel(R.T @ b.inertia @ R, a.inertia))
+    assert err <= tol, (err, c.tolist(), r.tolist())
+
+
 @pytest.mark.parametrize("kind", ["collinear", "coplanar"])
 def test_spheres_through_one_point_class_is_invariant(kind):
     """300 clumps of each class under a random rotation and translation, to 1e-12.
@@ -406,15 +420,7 @@ def test_spheres_through_one_point_class_is_invariant(kind):
     rng = np.random.default_rng(20261124 + (kind == "coplanar"))
     for _ in range(300):
         c, r = _through_one_point(rng, kind)
-        L = extent(c, r)
-        a = exact(c, r)
-        R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-        t = rng.normal(size=3)
-        b = exact(c @ R.T + t, r)
-        tol = 1e-12 + 64 * np.finfo(float).eps * np.abs(t).max() / L
-        err = max(abs(b.mass / a.mass - 1), np.max(np.abs(R.T @ (b.center_of_mass - t) - a.center_of_mass)) / L,
-                  rel(R.T @ b.inertia @ R, a.inertia))
-        assert err <= tol, (err, c.tolist(), r.tolist())
+        _assert_invariant_under_random_motion(rng, c, r)
 
 
 def _near_pencil(rng):
@@ -454,15 +460,7 @@ def test_near_pencils_are_invariant():
     rng = np.random.default_rng(20261125)
     for _ in range(300):
         c, r = _near_pencil(rng)
-        L = extent(c, r)
-        a = exact(c, r)
-        R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-        t = rng.normal(size=3)
-        b = exact(c @ R.T + t, r)
-        tol = 1e-12 + 64 * np.finfo(float).eps * np.abs(t).max() / L
-        err = max(abs(b.mass / a.mass - 1), np.max(np.abs(R.T @ (b.center_of_mass - t) - a.center_of_mass)) / L,
-                  rel(R.T @ b.inertia @ R, a.inertia))
-        assert err <= tol, (err, c.tolist(), r.tolist())
+        _assert_invariant_under_random_motion(rng, c, r)
 
 
 # make test-random (parent commit): test_rotation 7.3e-12 and test_permutation 1.1e-13 (limit 1e-13) on
