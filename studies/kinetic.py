@@ -29,16 +29,12 @@ non-uniform gases*, ch. 9-10):
   value) that divides the dilute D at volume fraction phi (1.005 at phi = 0.002).
 
 Nothing here knows YADE or the study engine; ``studies.report`` reads the table that
-``python -m studies.kinetic`` writes.  SI units throughout (m, kg, s, J, Pa).
+``python -m studies.sphere_gas`` writes.  SI units throughout (m, kg, s, J, Pa).
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import math
-import os
-import sys
 
 import numpy as np
 from scipy.special import erf, roots_genlaguerre, roots_legendre
@@ -289,30 +285,3 @@ class SphereGas:
                 "dlnD_dlnE": slope,
                 "d_hard_boltzmann": d_hs / chi, "d_hard_boltzmann_se": se_hs / chi,
                 "d_hertz_boltzmann": d_hz / chi, "d_hertz_boltzmann_se": se_hz / chi}
-
-
-def main(argv=None):
-    """``python -m studies.kinetic OUT.csv --gas JSON ...``: write the predictions for given gases."""
-    ap = argparse.ArgumentParser(prog="python -m studies.kinetic", description=main.__doc__)
-    ap.add_argument("out", help="CSV file to write")
-    ap.add_argument("--gas", action="append", required=True,
-                    help='JSON object of SphereGas fields, e.g. \'{"n_particles": 864, ...}\'; repeatable')
-    ap.add_argument("--chains", type=int, default=2000)
-    ap.add_argument("--steps", type=int, default=3000, help="collisions per chain")
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args(argv)
-    import pandas as pd
-    rows = []
-    for text in args.gas:
-        gas = SphereGas(**json.loads(text))
-        print(f"[kinetic] {gas}", file=sys.stderr)
-        rows.append({**dataclasses.asdict(gas), "number_density": gas.number_density,
-                     "volume_fraction": gas.volume_fraction,
-                     **gas.predictions(args.chains, args.steps, args.seed)})
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    pd.DataFrame(rows).to_csv(args.out, index=False, float_format="%.10g")
-    print(f"[kinetic] wrote {args.out}", file=sys.stderr)
-
-
-if __name__ == "__main__":
-    main()
