@@ -15,6 +15,8 @@ import pytest
 from _yadehelpers import O, PAPER_RHO, assert_state_matches, fresh_scene, make_spheres, random_clump, vec
 
 import clumpprops
+from yade import utils
+from yade.wrapper import FrictMat
 from clumpprops import yade as cy
 
 
@@ -76,6 +78,38 @@ def test_registry_chunks_round_trip(scene, small_chunks, tmp_path):
         c, r = _geo(2, 1)[0]
         new, _ = cy.append_clump(make_spheres(c + 50.0, r))
         assert sorted(cy.check().exact) == sorted(cids + [new])
+
+
+def test_set_many_equals_one_by_one(small_chunks):
+    """_Registry.set_many (a build's bulk update) leaves the registry, its chunk layout and the text
+    it writes exactly as the same entries set one by one, across chunk boundaries, after pops, with
+    reused ids, and after a chunk's text was written."""
+    rng = np.random.default_rng(5)
+    one, bulk = cy._Registry(), cy._Registry()
+    next_id = 0
+    for step in range(40):
+        n = int(rng.integers(1, 9))
+        if step % 7 == 6 and one:  # an id reused: erased clump ids come back in YADE
+            cids = [int(rng.choice(sorted(one)))] + list(range(next_id, next_id + n - 1))
+        else:
+            cids = list(range(next_id, next_id + n))
+        next_id += n
+        corr = [c + 100000 for c in cids]
+        fps = [f"b2:{c:016x}" for c in cids]
+        for c, k, f in zip(cids, corr, fps):
+            one[c] = (k, f, "exact")
+        bulk.set_many(cids, corr, fps, "exact")
+        if step % 5 == 4:  # pops, and texts written (as _save_registry does)
+            victim = int(rng.choice(sorted(one)))
+            one.pop(victim)
+            bulk.pop(victim)
+            for reg in (one, bulk):
+                for k in sorted(reg.dirty):
+                    reg.text(k)
+                reg.dirty.clear()
+        assert dict(one) == dict(bulk) and one.chunk_of == bulk.chunk_of and one.dirty == bulk.dirty
+        assert [one.text(k) for k in range(len(one.chunks))] == [bulk.text(k) for k in range(len(bulk.chunks))]
+    assert len(one.chunks) > 10 and len(one) > 100
 
 
 def test_build_rewrites_only_the_last_chunk(scene, small_chunks):
@@ -232,11 +266,12 @@ def test_fingerprints_scalar_and_vectorised():
     assert cy._fp([7, 8, 9], [0.1, 0.2, 0.30000000000000004], rhos[1]) != one[1]
 
 
-@pytest.mark.parametrize("n_clumps", [1, 2, 5])
-def test_append_paths_are_verified(scene, monkeypatch, n_clumps):
-    """A build whose YADE state misses its target raises naming the clump, on the plain-float path
-    (1-2 clumps) and on the numpy path (more)."""
-    real_one, real_flat = cy._correction_one, cy._correction_flat
+@pytest.mark.parametrize("n_clumps, core", [(1, True), (2, True), (1, False), (2, False), (5, False)])
+def test_append_paths_are_verified(scene, monkeypatch, n_clumps, core):
+    """A build whose YADE state misses its target raises naming the clump, on the core path and the
+    plain-float path (1-2 clumps; ``core=False``: the core declines, as it does for input it cannot
+    read) and on the numpy path (more)."""
+    real_one, real_flat, real_core = cy._correction_one, cy._correction_flat, cy._adapter_clump
 
     def one(*a, **k):
         m, off, w, V = real_one(*a, **k)
@@ -246,12 +281,84 @@ def test_append_paths_are_verified(scene, monkeypatch, n_clumps):
         m, off, w, V = real_flat(*a, **k)
         return m + 1e-3, off, w, V
 
+    def in_core(*a):
+        if not core:
+            return None
+        out = list(real_core(*a))
+        out[14] += 1e-3  # m_c
+        return tuple(out)
+
     monkeypatch.setattr(cy, "_correction_one", one)
     monkeypatch.setattr(cy, "_correction_flat", flat)
+    monkeypatch.setattr(cy, "_adapter_clump", in_core)
     geo = _geo(9, n_clumps)
     first = len(O.bodies) + len(geo[0][1]) + 1  # the members (spheres and correction) come first
     with pytest.raises(cy.ClumpAdapterError, match=rf"clump #{first}: YADE's state after the build differs"):
         cy.append_clumps([make_spheres(c, r) for c, r in geo])
+
+
+@pytest.mark.parametrize("n_clumps", [1, 5])
+@pytest.mark.parametrize("method", ["exact", "sum"])
+def test_density_spread_within_tolerance_is_not_a_library_error(scene, n_clumps, method):
+    """Spheres whose densities differ by 1e-13 (accepted: the target uses the first one) that barely
+    overlap or do not touch: the correction's mass and first moment are then the spread's, not a
+    union heavier than its spheres.  Before, every path raised "cannot be heavier (library error)"
+    or put the correction outside the clump."""
+    rng = np.random.default_rng(3)
+    lists, geo = [], []
+    for k in range(n_clumps):
+        c = np.array([[0.0, 0, 0], [0.0799999, 0, 0], [0.0, 0.3, 0]]) + [k, 0, 0]
+        r = np.array([0.04, 0.04, 0.05])
+        rho = PAPER_RHO * (1 + 1e-13 * rng.normal(size=3))
+        lists.append([utils.sphere(tuple(x), float(rr), material=FrictMat(density=float(d), young=1e7, poisson=0.4))
+                      for x, rr, d in zip(c.tolist(), r, rho)])
+        geo.append((c, r, rho[0]))
+    for (cid, _), (c, r, rho0) in zip(cy.append_clumps(lists, method=method), geo):
+        assert_state_matches(O.bodies[cid].state, clumpprops.mass_properties(c, r, rho0, method=method))
+
+
+def test_core_adapter_clump_matches_the_plain_float_terms():
+    """_core.adapter_clump (C++, Jacobi axes) against the library's targets and _correction_one (python
+    floats, LAPACK axes) on random clumps of 1-12 spheres, unequal densities within 1e-12 included:
+    targets bit for bit, correction terms to 1e-13 (the axes through V diag(w) V^T, which is what
+    YADE sums; degenerate moments leave the axes themselves free); None exactly where the target
+    cannot be read or the core reports an error."""
+    from clumpprops.api import _CORE
+
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        n = int(rng.integers(1, 13))
+        c = rng.normal(size=(n, 3)) * 0.05 + rng.normal(size=3) * 10.0
+        r = rng.uniform(0.02, 0.06, n)
+        rho = [PAPER_RHO * (1.0 + (1e-13 * rng.normal() if trial % 3 == 0 else 0.0)) for _ in range(n)]
+        method = ("exact", "pairwise", "sum")[trial % 3] if n < 3 else ("exact", "sum")[trial % 2]
+        out = cy._adapter_clump(_CORE[method], c.tolist(), r.tolist(), rho, True)
+        mp = clumpprops.mass_properties(c, r, rho[0], method=method)
+        m_c, off, w, V = cy._correction_one(c.tolist(), r.tolist(), rho, mp.mass, mp.center_of_mass.tolist(),
+                                            mp.inertia.tolist())
+        assert out[0] == mp.mass and list(out[1:4]) == mp.center_of_mass.tolist()
+        assert list(out[4:13]) == mp.inertia.ravel().tolist()
+        assert out[13] == np.max(np.abs(mp.principal_moments))
+        scale = max(abs(m_c), 1e-300)
+        assert abs(out[14] - m_c) <= 1e-13 * scale
+        reach = np.max(np.linalg.norm(c - mp.center_of_mass, axis=1) + r)
+        assert np.max(np.abs(np.array(out[15:18]) - off)) <= 1e-13 * reach
+        V_c = np.array(out[21:30]).reshape(3, 3)
+        assert np.linalg.det(V_c) > 0
+        J_c, J = V_c @ np.diag(out[18:21]) @ V_c.T, V @ np.diag(w) @ V.T
+        assert np.max(np.abs(J_c - J)) <= 1e-13 * max(np.max(np.abs(J)), 1e-300) + 1e-13 * out[13]
+    # a union is lighter than its spheres; the summed method needs no correction (offset exactly 0)
+    c, r = np.array([[0.0, 0, 0], [0.05, 0, 0]]), np.array([0.04, 0.04])
+    good = cy._adapter_clump(_CORE["exact"], c.tolist(), r.tolist(), [PAPER_RHO] * 2, True)
+    assert good is not None and good[14] < 0
+    summed = cy._adapter_clump(_CORE["sum"], c.tolist(), r.tolist(), [PAPER_RHO] * 2, True)
+    assert abs(summed[14]) <= 1e-15 * summed[0] and summed[15:18] == (0.0, 0.0, 0.0)
+    # input the core cannot read, or the core's own errors (a triple overlap under pairwise): None
+    assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0)], [0.1], [PAPER_RHO], True) is None
+    assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0, "x")], [0.1], [PAPER_RHO], True) is None
+    assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0, 0.0)], [-0.1], [PAPER_RHO], True) is None
+    tri = [(0.0, 0.0, 0.0), (0.05, 0.0, 0.0), (0.025, 0.03, 0.0)]
+    assert cy._adapter_clump(_CORE["pairwise"], tri, [0.04] * 3, [PAPER_RHO] * 3, True) is None
 
 
 @pytest.mark.parametrize("n_clumps", [1, 2, 5])
@@ -264,3 +371,34 @@ def test_append_paths_exact(scene, n_clumps):
         corr = O.bodies[cy.correction_id(cid)]
         assert cy.is_correction(corr) and type(corr.shape) is cy._Y.Shape
     assert cy.check().ok
+
+
+@pytest.mark.parametrize("user_gc", [True, False])
+def test_batch_build_restores_the_garbage_collector(scene, user_gc):
+    """append_clumps pauses Python's cyclic collector during a large batch and restores the user's
+    setting afterwards, also when the batch is refused."""
+    import gc
+
+    geo = _geo(11, 5)
+    (gc.enable if user_gc else gc.disable)()
+    try:
+        seen = []
+        real = cy._append_clumps
+
+        def spy(*a):
+            seen.append(gc.isenabled())
+            return real(*a)
+
+        cy._append_clumps, saved = spy, cy._append_clumps
+        try:
+            cy.append_clumps([make_spheres(c, r) for c, r in geo])
+            assert seen == [False] and gc.isenabled() == user_gc
+            with pytest.raises(cy.ClumpAdapterError, match="is empty"):
+                cy.append_clumps([make_spheres(c, r) for c, r in geo] + [[]])
+            assert seen == [False, False] and gc.isenabled() == user_gc
+            cy.append_clumps([make_spheres(*geo[0])])  # one clump: the collector is left alone
+            assert seen[-1] == user_gc and gc.isenabled() == user_gc
+        finally:
+            cy._append_clumps = saved
+    finally:
+        gc.enable()

@@ -4,6 +4,8 @@
 #include <pybind11/pybind11.h>
 
 #include <cstring>
+#include <limits>
+#include <vector>
 #include <stdexcept>
 
 #include "clumpprops.hpp"
@@ -102,72 +104,123 @@ static void principal(carr inertia, carr moments, carr axes) {
   for (std::int64_t m = 0; m < M; ++m) clumpprops::eigh3(I + 9 * m, w + 3 * m, V + 9 * m);
 }
 
-// YADE adapter (clumpprops/yade.py, correction_terms): the state of each clump's correction member
-// so that the spheres (summed the way YADE's Clump::updateProperties sums them) plus the correction
-// give the target mass, COM and inertia.  Sums about the target COM.  Same arithmetic as the numpy
-// version it replaces: sphere mass rho 4/3 pi r^3, own inertia 0.4 m r^2; offset -S/m_c clamped to
-// the clump's reach; J = I - I_spheres - m_c (|off|^2 1 - off off^T), symmetrised, Jacobi eigen.
-static void correction(carr centers, carr radii, carr densities, iarr starts, carr mass, carr com, carr inertia,
-                       carr m_c, carr off, carr w, carr V) {
-  const std::int64_t M = mass.size();
-  if (starts.size() != M + 1 || com.size() != 3 * M || inertia.size() != 9 * M || m_c.size() != M ||
-      off.size() != 3 * M || w.size() != 3 * M || V.size() != 9 * M)
-    throw std::invalid_argument("correction: shapes do not match");
-  const std::int64_t* st = starts.data();
-  const std::int64_t S = radii.size();
-  if (centers.size() != 3 * S || densities.size() != S || st[M] > S || st[0] < 0)
-    throw std::invalid_argument("correction: sphere arrays do not match starts");
-  const double* x = centers.data();
-  const double* r = radii.data();
-  const double* rho = densities.data();
-  const double* pm = mass.data();
-  const double* pc = com.data();
-  const double* pI = inertia.data();
-  double* omc = m_c.mutable_data();
-  double* ooff = off.mutable_data();
-  double* ow = w.mutable_data();
-  double* oV = V.mutable_data();
-  py::gil_scoped_release release;
-  for (std::int64_t m = 0; m < M; ++m) {
-    const double* c0 = pc + 3 * m;
-    double ms = 0.0, S3[3] = {0, 0, 0}, Is[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, reach = 0.0;
-    for (std::int64_t i = st[m]; i < st[m + 1]; ++i) {
-      const double vol = (4.0 / 3.0) * clumpprops::kPi * std::pow(r[i], 3.0);
-      const double mi = rho[i] * vol, ji = 0.4 * mi * r[i] * r[i];
-      const double d[3] = {x[3 * i] - c0[0], x[3 * i + 1] - c0[1], x[3 * i + 2] - c0[2]};
-      const double sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      ms += mi;
-      for (int a = 0; a < 3; ++a) S3[a] += mi * d[a];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) Is[3 * a + b] += mi * ((a == b ? sq : 0.0) - d[a] * d[b]) + (a == b ? ji : 0.0);
-      reach = std::max(reach, std::sqrt(sq) + r[i]);
+// Reads a python sequence of numbers (or of 3-sequences when width == 3) into out; false if it is not one.
+static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<double>& out) {
+  PyObject* fast = PySequence_Fast(seq, "");
+  if (!fast) return false;
+  bool ok = static_cast<std::size_t>(PySequence_Fast_GET_SIZE(fast)) == n;
+  PyObject** items = PySequence_Fast_ITEMS(fast);
+  for (std::size_t i = 0; ok && i < n; ++i) {
+    if (width == 1) {
+      out.push_back(PyFloat_AsDouble(items[i]));
+      continue;
     }
-    const double mc = pm[m] - ms;
-    double o[3] = {-S3[0] / mc, -S3[1] / mc, -S3[2] / mc};
-    const double norm = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
-    if (!std::isfinite(norm) || norm > reach) {
-      const double scale = (std::isfinite(norm) && norm > 0.0) ? reach / norm : 0.0;
-      for (int a = 0; a < 3; ++a) {
-        o[a] *= scale;
-        if (!std::isfinite(o[a])) o[a] = 0.0;
-      }
-    }
-    const double osq = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
-    double J[9];
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        J[3 * a + b] = pI[9 * m + 3 * a + b] - Is[3 * a + b] - mc * ((a == b ? osq : 0.0) - o[a] * o[b]);
-    omc[m] = mc;
-    for (int a = 0; a < 3; ++a) ooff[3 * m + a] = o[a];
-    clumpprops::eigh3(J, ow + 3 * m, oV + 9 * m);  // symmetrises
+    PyObject* row = PySequence_Fast(items[i], "");
+    ok = row && PySequence_Fast_GET_SIZE(row) == width;
+    for (int a = 0; ok && a < width; ++a) out.push_back(PyFloat_AsDouble(PySequence_Fast_ITEMS(row)[a]));
+    Py_XDECREF(row);
   }
+  Py_DECREF(fast);
+  if (PyErr_Occurred()) {
+    PyErr_Clear();
+    ok = false;
+  }
+  return ok;
+}
+
+// The YADE adapter's single clump (clumpprops/yade.py, append_clump): target properties and the
+// state of the correction member in one call on python sequences, so a small clump costs no numpy
+// array.  The same formulas as yade._correction_one (sums about the target COM; sphere mass
+// rho 4/3 pi r^3, own inertia 0.4 m r^2, as YADE's utils.sphere sets them), with Jacobi for the axes.
+// adapter_clump(method, pts [(x, y, z), ...], radii [...], densities [...], strict) -> None when the
+// input is not plain numbers, the core reports an error, or (strict) the target is not a union of the
+// spheres: the caller's general path then raises the documented error.  Otherwise 30 floats: mass,
+// com (3), inertia (9, row-major), scale (largest |principal moment|), m_c, offset (3), moments (3),
+// axes (9, row-major; right-handed columns).  The target uses the first sphere's density.
+static py::object adapter_clump(int method, py::handle pts, py::handle radii, py::handle densities, bool strict) {
+  const Py_ssize_t n = PyObject_Length(radii.ptr());
+  if (n <= 0) {
+    PyErr_Clear();
+    return py::none();
+  }
+  thread_local std::vector<double> x, r, rho;
+  x.clear();
+  r.clear();
+  rho.clear();
+  if (!read_numbers(pts.ptr(), n, 3, x) || !read_numbers(radii.ptr(), n, 1, r) || !read_numbers(densities.ptr(), n, 1, rho))
+    return py::none();
+  thread_local Engine eng;
+  Result res;
+  if (eng.clump(static_cast<Method>(method), x.data(), r.data(), static_cast<int>(n), rho[0], true, res, true) != clumpprops::kOk)
+    return py::none();
+  const double* c = res.com;
+  double ms = 0, sx = 0, sy = 0, sz = 0, ixx = 0, iyy = 0, izz = 0, ixy = 0, ixz = 0, iyz = 0, reach = 0, smd = 0;
+  double sp = 0, spd = 0;  // a density spread's share of m_c and of S (see yade.correction_terms)
+  for (Py_ssize_t i = 0; i < n; ++i) {
+    const double ri = r[i], mi = rho[i] * ((4.0 / 3.0) * clumpprops::kPi * std::pow(ri, 3.0));
+    const double ji = 0.4 * mi * std::pow(ri, 2.0);
+    const double dx = x[3 * i] - c[0], dy = x[3 * i + 1] - c[1], dz = x[3 * i + 2] - c[2];
+    ms += mi;
+    sx += mi * dx;
+    sy += mi * dy;
+    sz += mi * dz;
+    const double sq = dx * dx + dy * dy + dz * dz;
+    ixx += mi * (sq - dx * dx) + ji;
+    iyy += mi * (sq - dy * dy) + ji;
+    izz += mi * (sq - dz * dz) + ji;
+    ixy -= mi * (dx * dy);
+    ixz -= mi * (dx * dz);
+    iyz -= mi * (dy * dz);
+    const double dist = std::sqrt(sq) + ri;
+    smd += mi * dist;
+    if (rho[i] != rho[0]) {
+      const double spread = mi * std::fabs(rho[i] - rho[0]) / rho[i];
+      sp += spread;
+      spd += spread * dist;
+    }
+    if (dist > reach) reach = dist;
+  }
+  const double eps = std::numeric_limits<double>::epsilon();
+  const double mc = res.mass - ms, s_noise = 64.0 * eps * smd + spd;
+  const bool roundoff = std::fabs(mc) * reach <= s_noise;  // no offset (see yade.correction_terms)
+  const double ox = roundoff ? 0.0 : -sx / mc, oy = roundoff ? 0.0 : -sy / mc, oz = roundoff ? 0.0 : -sz / mc;
+  if (strict) {
+    if (mc > 64.0 * eps * ms + sp) return py::none();
+    const double norm = std::sqrt(ox * ox + oy * oy + oz * oz);
+    if (!roundoff && norm > reach + (reach * 1e-9 + s_noise / std::fabs(mc))) return py::none();
+  }
+  if (!std::isfinite(mc) || !std::isfinite(ox) || !std::isfinite(oy) || !std::isfinite(oz)) return py::none();
+  const double osq = ox * ox + oy * oy + oz * oz;
+  const double* a = res.inertia;
+  const double j01 = 0.5 * ((a[1] - ixy + mc * (ox * oy)) + (a[3] - ixy + mc * (oy * ox)));
+  const double j02 = 0.5 * ((a[2] - ixz + mc * (ox * oz)) + (a[6] - ixz + mc * (oz * ox)));
+  const double j12 = 0.5 * ((a[5] - iyz + mc * (oy * oz)) + (a[7] - iyz + mc * (oz * oy)));
+  const double J[9] = {a[0] - ixx - mc * (osq - ox * ox), j01, j02, j01, a[4] - iyy - mc * (osq - oy * oy), j12,
+                       j02, j12, a[8] - izz - mc * (osq - oz * oz)};
+  double w[3], V[9];
+  clumpprops::eigh3(J, w, V);
+  const double scale = std::max(std::fabs(res.moments[0]), std::max(std::fabs(res.moments[1]), std::fabs(res.moments[2])));
+  PyObject* out = PyTuple_New(30);
+  int k = 0;
+  auto put = [&](double v) { PyTuple_SET_ITEM(out, k++, PyFloat_FromDouble(v)); };
+  put(res.mass);
+  for (int i = 0; i < 3; ++i) put(c[i]);
+  for (int i = 0; i < 9; ++i) put(a[i]);
+  put(scale);
+  put(mc);
+  put(ox);
+  put(oy);
+  put(oz);
+  for (int i = 0; i < 3; ++i) put(w[i]);
+  for (int i = 0; i < 9; ++i) put(V[i]);
+  return py::reinterpret_steal<py::object>(out);
 }
 
 PYBIND11_MODULE(_core, mod) {
   mod.doc() = "clumpprops' compiled core (clumpprops/core/clumpprops.hpp): exact, pairwise and summed moments";
   mod.def("run", &run);
   mod.def("principal", &principal);
-  mod.def("correction", &correction);
+  mod.def("adapter_clump", &adapter_clump);
   mod.attr("EXACT") = static_cast<int>(clumpprops::kExact);
   mod.attr("PAIRWISE") = static_cast<int>(clumpprops::kPairwise);
   mod.attr("SUM") = static_cast<int>(clumpprops::kSum);
