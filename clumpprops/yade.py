@@ -566,7 +566,7 @@ def _errors_one(row, mass, com, inertia, scale):
         a, b, c = Ri[0] * w0, Ri[1] * w1, Ri[2] * w2
         for Rl, t in zip(R, Ti):
             e = abs(a * Rl[0] + b * Rl[1] + c * Rl[2] - t)
-            if e > e_i:
+            if e > e_i or e != e:  # a NaN stays (and fails the check)
                 e_i = e
     tr = max(inertia[0][0] + inertia[1][1] + inertia[2][2], 0.0)
     gyr = math.sqrt(tr / (2.0 * mass)) if mass > 0 else 1.0
@@ -933,7 +933,10 @@ def _rotations(q):
     return R
 
 
-def _verify(Y, cids, mass, com, inertia, rtol=1e-10, scale=None, rows=None):
+_VERIFY_RTOL = 1e-10  # YADE's state after a build against the target (relative; round-off is ~1e-15)
+
+
+def _verify(Y, cids, mass, com, inertia, rtol=_VERIFY_RTOL, scale=None, rows=None):
     """YADE's state of each clump equals the target (mass, COM, inertia tensor), else raise
     (``scale``, ``rows``: see :func:`_state_errors`)."""
     if len(cids) <= _SMALL and scale is not None and rows is not None:
@@ -944,10 +947,14 @@ def _verify(Y, cids, mass, com, inertia, rtol=1e-10, scale=None, rows=None):
         bad = np.flatnonzero(~((e_m <= rtol) & (e_c <= rtol) & (e_i <= rtol)))
     if len(bad):
         k = int(bad[0])
-        raise ClumpAdapterError(
-            f"clump #{cids[k]}: YADE's state after the build differs from the target (relative errors: mass "
-            f"{e_m[k]:.2g}, centre of mass {e_c[k]:.2g}, inertia {e_i[k]:.2g}; tolerance {rtol:g})"
-        )
+        raise _mismatch(cids[k], e_m[k], e_c[k], e_i[k], rtol)
+
+
+def _mismatch(cid, e_m, e_c, e_i, rtol):
+    return ClumpAdapterError(
+        f"clump #{cid}: YADE's state after the build differs from the target (relative errors: mass "
+        f"{e_m:.2g}, centre of mass {e_c:.2g}, inertia {e_i:.2g}; tolerance {rtol:g})"
+    )
 
 
 def _apply(plan, method):
@@ -1123,6 +1130,45 @@ def append_clumps(clumps, method=DEFAULT_METHOD):
         return _append_clumps(clumps, method)
 
 
+def _build_one(Y, checked, com, m_c, off, w, q):
+    """Append one clump and its correction member (the scene changes here).  ``checked``: the tuple
+    of :func:`_check_new_spheres`; com (3): the target centre of mass; m_c, off (3), w (3), q (4, as
+    w, x, y, z): the correction's mass, offset from ``com``, principal moments and orientation.
+    The clump is built around the origin and moved back (see :func:`_restore`).  Returns (clump id,
+    sphere member ids, correction id, YADE's resulting state as read by :func:`_state_row`)."""
+    spheres, pos, _, _, mat, mask, states = checked
+    ox, oy, oz = com
+    for sb, (x, y, z) in zip(states, pos):  # build near the origin
+        sb.pos = (x - ox, y - oy, z - oz)
+    corr = Y.Body()  # as _new_correction, inlined
+    corr.shape = _correction_shape(Y)
+    corr.material = mat
+    plain = _PLAIN_STATE.get(type(mat))
+    if not plain:
+        st = mat.newAssocState()
+        if plain is None:
+            _PLAIN_STATE[type(mat)] = type(st) is Y.State
+        corr.state = st
+    corr.bounded = False
+    corr.mask = mask
+    st = corr.state
+    dx, dy, dz = off
+    st.mass = m_c
+    st.pos = (dx, dy, dz)
+    st.inertia = (w[0], w[1], w[2])
+    st.ori = Y.Quaternion(q[0], q[1], q[2], q[3])
+    cid, mids = Y.O.bodies.appendClumped(spheres + [corr], 0)
+    c = Y.O.bodies[cid].state
+    p = c.pos
+    cx, cy, cz = ox + p[0], oy + p[1], oz + p[2]
+    c.pos = (cx, cy, cz)
+    for sb, xyz in zip(states, pos):  # the spheres' own coordinates, bit for bit
+        sb.pos = xyz
+    st.pos = (ox + dx, oy + dy, oz + dz)
+    w, q = c.inertia, c.ori  # YADE's result (and the position just set), verified by the caller
+    return cid, mids[: len(spheres)], corr.id, (c.mass, cx, cy, cz, w[0], w[1], w[2], q[0], q[1], q[2], q[3])
+
+
 def _append_clumps(clumps, method):
     Y = _Y.load()
     seen = set()
@@ -1150,45 +1196,13 @@ def _append_clumps(clumps, method):
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
     oris = _orientations(V_c)
     # ---- from here on the scene is modified; python floats and YADE objects only
-    Body, State, Quat = Y.Body, Y.State, Y.Quaternion
-    shape = _correction_shape(Y)
     com_l = com if isinstance(com, list) else com.tolist()
-    append = Y.O.bodies.appendClumped
-    bodies = Y.O.bodies
     out, rows, corr_ids = [], [], []
-    for k, (spheres, pos, _, _, mat, mask, states) in enumerate(checked):
-        ox, oy, oz = com_l[k]
-        for sb, (x, y, z) in zip(states, pos):  # build near the origin: see _restore
-            sb.pos = (x - ox, y - oy, z - oz)
-        corr = Body()  # as _new_correction, inlined
-        corr.shape = shape
-        corr.material = mat
-        plain = _PLAIN_STATE.get(type(mat))
-        if not plain:
-            st = mat.newAssocState()
-            if plain is None:
-                _PLAIN_STATE[type(mat)] = type(st) is State
-            corr.state = st
-        corr.bounded = False
-        corr.mask = mask
-        st = corr.state
-        dx, dy, dz = off_l[k]
-        st.mass = m_l[k]
-        st.pos = (dx, dy, dz)
-        st.inertia = tuple(w_l[k])
-        st.ori = Quat(*oris[k])
-        cid, mids = append(spheres + [corr], 0)
-        c = bodies[cid].state
-        p = c.pos
-        cx, cy, cz = ox + p[0], oy + p[1], oz + p[2]
-        c.pos = (cx, cy, cz)
-        for sb, xyz in zip(states, pos):  # the spheres' own coordinates, bit for bit
-            sb.pos = xyz
-        st.pos = (ox + dx, oy + dy, oz + dz)
-        w, q = c.inertia, c.ori  # YADE's result (and the position just set), verified below (see _state_row)
-        rows.append((c.mass, cx, cy, cz, w[0], w[1], w[2], q[0], q[1], q[2], q[3]))
-        corr_ids.append(corr.id)
-        out.append((cid, mids[: len(spheres)]))
+    for k, c in enumerate(checked):
+        cid, mids, corr_id, row = _build_one(Y, c, com_l[k], m_l[k], off_l[k], w_l[k], oris[k])
+        rows.append(row)
+        corr_ids.append(corr_id)
+        out.append((cid, mids))
     if M <= _SMALL:
         fps = [_fp(mids, c[2], c[3]) for (_, mids), c in zip(out, checked)]
     else:
@@ -1209,7 +1223,22 @@ def append_clump(spheres, method=DEFAULT_METHOD):
     ``member_ids`` lists the spheres; the clump also holds one collision-free correction
     member (see the module docstring).
     """
-    return append_clumps([spheres], method=method)[0]
+    Y = _Y.load()
+    checked = _check_new_spheres(Y, 0, spheres, set())
+    f = None
+    if method in _CORE:  # the one-clump path: one core call, plain floats (the same steps as a batch)
+        f = _adapter_clump(_CORE[method], checked[1], checked[2], checked[3], method in _STRICT)
+    if f is None:  # the general path raises the documented error (or computes a baseline method)
+        return append_clumps([checked[0]], method=method)[0]
+    V = (f[21:24], f[24:27], f[27:30])
+    cid, mids, corr_id, row = _build_one(Y, checked, f[1:4], f[14], f[15:18], f[18:21], _quaternion_one(V))
+    reg = _registry()
+    reg[cid] = (corr_id, _fp(mids, checked[2], checked[3]), method)
+    _save_registry(reg)
+    e_m, e_c, e_i = _errors_one(row, f[0], f[1:4], (f[4:7], f[7:10], f[10:13]), f[13])
+    if not (e_m <= _VERIFY_RTOL and e_c <= _VERIFY_RTOL and e_i <= _VERIFY_RTOL):  # NaN fails too
+        raise _mismatch(cid, e_m, e_c, e_i, _VERIFY_RTOL)
+    return cid, mids
 
 
 # --------------------------------------------------------------------------- correcting existing clumps

@@ -266,7 +266,7 @@ def test_fingerprints_scalar_and_vectorised():
     assert cy._fp([7, 8, 9], [0.1, 0.2, 0.30000000000000004], rhos[1]) != one[1]
 
 
-@pytest.mark.parametrize("n_clumps, core", [(1, True), (2, True), (1, False), (2, False), (5, False)])
+@pytest.mark.parametrize("n_clumps, core", [(1, True), (2, True), (1, "nan"), (1, False), (2, False), (5, False)])
 def test_append_paths_are_verified(scene, monkeypatch, n_clumps, core):
     """A build whose YADE state misses its target raises naming the clump, on the core path and the
     plain-float path (1-2 clumps; ``core=False``: the core declines, as it does for input it cannot
@@ -285,7 +285,10 @@ def test_append_paths_are_verified(scene, monkeypatch, n_clumps, core):
         if not core:
             return None
         out = list(real_core(*a))
-        out[14] += 1e-3  # m_c
+        if core == "nan":  # a NaN principal moment: YADE's inertia is NaN, and NaN is no match
+            out[20] = float("nan")
+        else:
+            out[14] += 1e-3  # m_c
         return tuple(out)
 
     monkeypatch.setattr(cy, "_correction_one", one)
