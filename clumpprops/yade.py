@@ -1230,12 +1230,11 @@ def append_clump(spheres, method=DEFAULT_METHOD):
         f = _adapter_clump(_CORE[method], checked[1], checked[2], checked[3], method in _STRICT)
     if f is None:  # the general path raises the documented error (or computes a baseline method)
         return append_clumps([checked[0]], method=method)[0]
-    V = (f[21:24], f[24:27], f[27:30])
-    cid, mids, corr_id, row = _build_one(Y, checked, f[1:4], f[14], f[15:18], f[18:21], _quaternion_one(V))
+    cid, mids, corr_id, row = _build_one(Y, checked, f[1:4], f[14], f[15:18], f[18:21], f[30:34])
     reg = _registry()
     reg[cid] = (corr_id, _fp(mids, checked[2], checked[3]), method)
     _save_registry(reg)
-    e_m, e_c, e_i = _errors_one(row, f[0], f[1:4], (f[4:7], f[7:10], f[10:13]), f[13])
+    e_m, e_c, e_i = _core.state_errors(row, f)  # _errors_one's compiled twin
     if not (e_m <= _VERIFY_RTOL and e_c <= _VERIFY_RTOL and e_i <= _VERIFY_RTOL):  # NaN fails too
         raise _mismatch(cid, e_m, e_c, e_i, _VERIFY_RTOL)
     return cid, mids

@@ -350,6 +350,24 @@ def test_core_adapter_clump_matches_the_plain_float_terms():
         assert np.linalg.det(V_c) > 0
         J_c, J = V_c @ np.diag(out[18:21]) @ V_c.T, V @ np.diag(w) @ V.T
         assert np.max(np.abs(J_c - J)) <= 1e-13 * max(np.max(np.abs(J)), 1e-300) + 1e-13 * out[13]
+    # the orientation it returns is _quaternion_one's of its axes; its state_errors are _errors_one's
+    for trial in range(200):
+        c, r = rng.normal(size=(4, 3)) * 0.05, rng.uniform(0.02, 0.06, 4)
+        out = cy._adapter_clump(_CORE["exact"], c.tolist(), r.tolist(), [PAPER_RHO] * 4, True)
+        V = np.array(out[21:30]).reshape(3, 3)
+        q = cy._quaternion_one(V)
+        assert np.max(np.abs(np.array(out[30:34]) - q)) <= 4e-16
+        qy = rng.normal(size=4)
+        row = (out[0] * (1 + 1e-9 * rng.normal()), *(np.array(out[1:4]) + 1e-6 * rng.normal(size=3)),
+               *(np.abs(rng.normal(size=3)) * out[13]), *qy)
+        if trial % 50 == 0:
+            row = row[:5] + (float("nan"),) + row[6:]
+        ref = cy._errors_one(row, out[0], out[1:4], (out[4:7], out[7:10], out[10:13]), out[13])
+        got = cy._core.state_errors(row, out)
+        if trial % 50 == 0:
+            assert np.isnan(got[2]) and np.isnan(ref[2])
+        else:
+            assert np.allclose(got, ref, rtol=1e-12, atol=0) and got[2] > 0
     # a union is lighter than its spheres; the summed method needs no correction (offset exactly 0)
     c, r = np.array([[0.0, 0, 0], [0.05, 0, 0]]), np.array([0.04, 0.04])
     good = cy._adapter_clump(_CORE["exact"], c.tolist(), r.tolist(), [PAPER_RHO] * 2, True)

@@ -128,15 +128,40 @@ static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<do
   return ok;
 }
 
+// (w, x, y, z) of the rotation A = V^T, V row-major with right-handed columns: largest-component
+// branch, as Eigen's Quaternion(Matrix3) and yade._quaternion_one (same branches, same formulas).
+static void quaternion_of_axes(const double* V, double* q) {
+  // A = V^T: a_ij = V[j][i]
+  const double a00 = V[0], a01 = V[3], a02 = V[6], a10 = V[1], a11 = V[4], a12 = V[7], a20 = V[2], a21 = V[5], a22 = V[8];
+  const double sq[4] = {1.0 + (a00 + a11 + a22), 1.0 + a00 - a11 - a22, 1.0 - a00 + a11 - a22, 1.0 - a00 - a11 + a22};
+  int big = 0;
+  for (int k = 1; k < 4; ++k)
+    if (sq[k] > sq[big]) big = k;
+  const double s = 2.0 * std::sqrt(std::max(sq[big], 0.5));
+  double t[4];
+  if (big == 0) {
+    t[0] = 0.25 * s, t[1] = (a21 - a12) / s, t[2] = (a02 - a20) / s, t[3] = (a10 - a01) / s;
+  } else if (big == 1) {
+    t[0] = (a21 - a12) / s, t[1] = 0.25 * s, t[2] = (a01 + a10) / s, t[3] = (a02 + a20) / s;
+  } else if (big == 2) {
+    t[0] = (a02 - a20) / s, t[1] = (a01 + a10) / s, t[2] = 0.25 * s, t[3] = (a12 + a21) / s;
+  } else {
+    t[0] = (a10 - a01) / s, t[1] = (a02 + a20) / s, t[2] = (a12 + a21) / s, t[3] = 0.25 * s;
+  }
+  const double n = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2] + t[3] * t[3]);
+  for (int k = 0; k < 4; ++k) q[k] = t[k] / n;
+}
+
 // The YADE adapter's single clump (clumpprops/yade.py, append_clump): target properties and the
 // state of the correction member in one call on python sequences, so a small clump costs no numpy
 // array.  The same formulas as yade._correction_one (sums about the target COM; sphere mass
 // rho 4/3 pi r^3, own inertia 0.4 m r^2, as YADE's utils.sphere sets them), with Jacobi for the axes.
 // adapter_clump(method, pts [(x, y, z), ...], radii [...], densities [...], strict) -> None when the
 // input is not plain numbers, the core reports an error, or (strict) the target is not a union of the
-// spheres: the caller's general path then raises the documented error.  Otherwise 30 floats: mass,
+// spheres: the caller's general path then raises the documented error.  Otherwise 34 floats: mass,
 // com (3), inertia (9, row-major), scale (largest |principal moment|), m_c, offset (3), moments (3),
-// axes (9, row-major; right-handed columns).  The target uses the first sphere's density.
+// axes (9, row-major; right-handed columns), and then the axes' orientation as a quaternion
+// (w, x, y, z) of A = V^T (4): 34 floats.  The target uses the first sphere's density.
 static py::object adapter_clump(int method, py::handle pts, py::handle radii, py::handle densities, bool strict) {
   const Py_ssize_t n = PyObject_Length(radii.ptr());
   if (n <= 0) {
@@ -200,7 +225,9 @@ static py::object adapter_clump(int method, py::handle pts, py::handle radii, py
   double w[3], V[9];
   clumpprops::eigh3(J, w, V);
   const double scale = std::max(std::fabs(res.moments[0]), std::max(std::fabs(res.moments[1]), std::fabs(res.moments[2])));
-  PyObject* out = PyTuple_New(30);
+  double q[4];
+  quaternion_of_axes(V, q);
+  PyObject* out = PyTuple_New(34);
   int k = 0;
   auto put = [&](double v) { PyTuple_SET_ITEM(out, k++, PyFloat_FromDouble(v)); };
   put(res.mass);
@@ -213,7 +240,47 @@ static py::object adapter_clump(int method, py::handle pts, py::handle radii, py
   put(oz);
   for (int i = 0; i < 3; ++i) put(w[i]);
   for (int i = 0; i < 9; ++i) put(V[i]);
+  for (int i = 0; i < 4; ++i) put(q[i]);
   return py::reinterpret_steal<py::object>(out);
+}
+
+// Relative errors (mass, centre of mass / radius of gyration, inertia / scale) of a rigid body's
+// state row = (mass, x, y, z, moments (3), quaternion x, y, z, w: YADE's order) against a target:
+// the first 14 floats of adapter_clump (mass, com, inertia row-major, scale).  The twin of
+// yade._errors_one; a NaN anywhere gives a NaN error (never a pass).
+static py::tuple state_errors(py::handle row_obj, py::handle target_obj) {
+  std::vector<double> row, t;
+  if (!read_numbers(row_obj.ptr(), 11, 1, row)) throw std::invalid_argument("state_errors: row must be 11 numbers");
+  PyObject* fast = PySequence_Fast(target_obj.ptr(), "state_errors: target must be a sequence");
+  if (!fast) throw py::error_already_set();
+  const Py_ssize_t nt = PySequence_Fast_GET_SIZE(fast);
+  Py_DECREF(fast);
+  if (nt < 14) throw std::invalid_argument("state_errors: target must hold at least 14 numbers");
+  PyObject* head = PySequence_GetSlice(target_obj.ptr(), 0, 14);
+  const bool ok = head && read_numbers(head, 14, 1, t);
+  Py_XDECREF(head);
+  if (!ok) throw std::invalid_argument("state_errors: target must be numbers");
+  double x = row[7], y = row[8], z = row[9], w = row[10];
+  const double n = std::sqrt(x * x + y * y + z * z + w * w);
+  x /= n, y /= n, z /= n, w /= n;
+  const double R[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+                       2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                       2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+  const double mass = t[0], *com = &t[1], *I = &t[4], scale = t[13];
+  double e_i = 0.0;
+  for (int i = 0; i < 3; ++i)
+    for (int l = 0; l < 3; ++l) {
+      const double e = std::fabs(R[3 * i] * row[4] * R[3 * l] + R[3 * i + 1] * row[5] * R[3 * l + 1] +
+                                 R[3 * i + 2] * row[6] * R[3 * l + 2] - I[3 * i + l]);
+      if (e > e_i || std::isnan(e)) e_i = e;
+      if (std::isnan(e_i)) break;
+    }
+  const double tr = std::max(I[0] + I[4] + I[8], 0.0);
+  const double gyr = mass > 0 ? std::sqrt(tr / (2.0 * mass)) : 1.0;
+  const double e_m = mass != 0.0 ? std::fabs(row[0] - mass) / std::fabs(mass) : INFINITY;
+  const double dc = std::sqrt((row[1] - com[0]) * (row[1] - com[0]) + (row[2] - com[1]) * (row[2] - com[1]) +
+                              (row[3] - com[2]) * (row[3] - com[2]));
+  return py::make_tuple(e_m, dc / std::max(gyr, 1e-300), e_i / std::max(scale, 1e-300));
 }
 
 PYBIND11_MODULE(_core, mod) {
@@ -221,6 +288,7 @@ PYBIND11_MODULE(_core, mod) {
   mod.def("run", &run);
   mod.def("principal", &principal);
   mod.def("adapter_clump", &adapter_clump);
+  mod.def("state_errors", &state_errors);
   mod.attr("EXACT") = static_cast<int>(clumpprops::kExact);
   mod.attr("PAIRWISE") = static_cast<int>(clumpprops::kPairwise);
   mod.attr("SUM") = static_cast<int>(clumpprops::kSum);
