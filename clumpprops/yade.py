@@ -257,28 +257,15 @@ def _correction_flat(x, r, rho, counts, mass, com, inertia, strict=True):
     return m_c, off, w, V
 
 
-try:  # numpy's gufunc behind linalg.eigh, without the wrapper's checks (half the time for one 3x3)
-    from numpy.linalg._umath_linalg import eigh_lo as _eigh_lo
-except ImportError:  # pragma: no cover
-    _eigh_lo = None
-
-
-def _eigh(J):
-    """np.linalg.eigh of one finite symmetric (3, 3) float64 array."""
-    if _eigh_lo is not None:
-        w, V = _eigh_lo(J)
-        if math.isfinite(sum(w.tolist())):  # LAPACK failed to converge: NaN (numpy's wrapper raises)
-            return w, V
-    return np.linalg.eigh(J)
-
-
 _EPS = float(np.finfo(float).eps)
 _FOUR_THIRDS_PI = (4.0 / 3.0) * math.pi
 
 
 def _correction_one(pts, radii, rhos, mass, com, inertia, strict=True, k=0):
-    """:func:`correction_terms` for ONE clump in plain Python floats (numpy's per-call overhead is
-    most of the cost for a single small clump).  pts: [(x, y, z), ...], radii, rhos: lists; mass,
+    """:func:`correction_terms` for ONE clump in plain Python floats: the small-batch path where the
+    compiled twin ``_core.adapter_clump`` does not apply (the baseline methods) or declines (it then
+    raises the documented error here), and the reference that twin is tested against.  pts:
+    [(x, y, z), ...], radii, rhos: lists; mass,
     com (3,), inertia (3, 3) nested lists.  Same formulas, checks and messages (``k``: index in the
     batch); returns (m_c, offset [3], moments [3], axes (3, 3) ndarray, right-handed columns)."""
     cx, cy, cz = com
@@ -332,7 +319,7 @@ def _correction_one(pts, radii, rhos, mass, com, inertia, strict=True, k=0):
         [j01, a11 - iyy - m_c * (osq - oy * oy), j12],
         [j02, j12, a22 - izz - m_c * (osq - oz * oz)],
     ])
-    w, V = _eigh(J)
+    w, V = np.linalg.eigh(J)
     (v00, v01, v02), (v10, v11, v12), (v20, v21, v22) = V.tolist()
     if v00 * (v11 * v22 - v12 * v21) - v01 * (v10 * v22 - v12 * v20) + v02 * (v10 * v21 - v11 * v20) < 0:
         V[:, 2] *= -1.0
