@@ -965,8 +965,8 @@ def _apply(plan, method):
         (mass, com, inertia, scale), (m_c, off, w_c, V_c) = _corrections(xs, rs, rhos, [x.tolist() for x in xs],
                                                                       [r.tolist() for r in rs], method)
     except ClumpAdapterError as exc:
-        k = _batch_index(str(exc))
-        raise ClumpAdapterError(f"clump #{plan[k][0].id}: {exc}" if k is not None else str(exc)) from exc
+        k, what = _batch_index(str(exc))
+        raise ClumpAdapterError(f"clump #{plan[k][0].id}: {what}" if k is not None else what) from exc
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
     # ---- from here on the scene is modified
@@ -1006,10 +1006,11 @@ def _apply(plan, method):
 
 
 def _batch_index(message):
+    """(k, the rest of the message) of an error naming "clump k of the batch: ...", else (None, message)."""
     import re
 
-    m = re.match(r"clump (\d+) of the batch", message)
-    return int(m.group(1)) if m else None
+    m = re.match(r"clump (\d+) of the batch: ", message)
+    return (int(m.group(1)), message[m.end():]) if m else (None, message)
 
 
 def _check_new_spheres(Y, k, spheres, seen):
@@ -1177,8 +1178,8 @@ def _append_clumps(clumps, method):
         (mass, com, inertia, scale), (m_l, off_l, w_l, V_c) = _corrections(xs, rs, [c[3] for c in checked], pts,
                                                                           [c[2] for c in checked], method)
     except ClumpAdapterError as exc:
-        k = _batch_index(str(exc))
-        raise ClumpAdapterError(f"clump {k} of the input: {exc}" if k is not None else str(exc)) from exc
+        k, what = _batch_index(str(exc))
+        raise ClumpAdapterError(f"clump {k} of the input: {what}" if k is not None else what) from exc
     except ValueError as exc:
         raise ClumpAdapterError(f"clump properties could not be computed: {exc}") from exc
     oris = _orientations(V_c)

@@ -423,3 +423,23 @@ def test_batch_build_restores_the_garbage_collector(scene, user_gc):
             cy._append_clumps = saved
     finally:
         gc.enable()
+
+
+@pytest.mark.parametrize("n_clumps", [1, 5])
+def test_library_error_names_the_input_clump_once(scene, monkeypatch, n_clumps):
+    """A target the correction cannot reach (here: a union heavier than its spheres, as a library
+    bug would give) is refused before the scene changes, naming the clump of the input once."""
+    real = cy._targets
+
+    def heavy(*a):
+        mass, com, inertia, scale = real(*a)
+        return [m * 2 for m in mass] if isinstance(mass, list) else mass * 2, com, inertia, scale
+
+    monkeypatch.setattr(cy, "_targets", heavy)
+    monkeypatch.setattr(cy, "_adapter_clump", lambda *a: None)  # the core path declines: the general one decides
+    geo = _geo(12, n_clumps)
+    n = len(O.bodies)
+    with pytest.raises(cy.ClumpAdapterError) as err:
+        cy.append_clumps([make_spheres(c, r) for c, r in geo])
+    assert str(err.value).startswith("clump 0 of the input: target mass ") and "of the batch" not in str(err.value)
+    assert len(O.bodies) == n
