@@ -93,6 +93,7 @@ def plot_all(results, log=print):
             ax.plot(np.arange(len(labels)) + 0.125, 100 * np.array(pred), "k_", ms=18, mew=2,
                     label="equal energy, hard particles: sqrt(m_exact/m_sum) − 1")
             ax.set_xticks(np.arange(len(labels)))
+            ax.set_xlim(-0.6, len(labels) - 0.4)
             ax.set_xticklabels([f"{s}\nD/d_s = {o}" if o not in ("", "nan") else s for s, o in labels], fontsize=8)
             made.append(_finish(fig, ax, 0, "D_uncorrected / D_exact − 1 (%), 95 % CI",
                                 "The protocol effect: same velocities vs same energy", results, "protocol.png"))

@@ -19,6 +19,7 @@ import sys
 import pandas as pd
 
 from . import design, effects, effects_plots, engine, sphere_gas
+from . import shapes as shp
 from . import spec as S
 
 RESULTS = os.path.join(S.ROOT, "results")
@@ -158,12 +159,29 @@ def _answer(sp, g, st, cpu):
     return text
 
 
+def _mass_scaling(sp, g, st):
+    """For uncorrected vs exact in the equal-energy protocol: the hard-particle prediction (every mass
+    scaled by 1 + x at equal energy leaves collisions unchanged and slows the gas by sqrt(1 + x)),
+    and whether the interval contains it; "" otherwise."""
+    if g.get("protocol") != "equal_energy" or st["case"] != "uncorrected":
+        return ""
+    x = shp.mass_error(sp["shapes"][g["shape"]], sp["material"]["density"])
+    pred = 1.0 / math.sqrt(1.0 + x) - 1.0
+    text = (f" Hard particles with every mass {pct(x, 1)} too large predict sqrt(m_exact/m_summed) − 1 = "
+            f"{pct(pred)}")
+    hw = st["halfwidth"]
+    if st["n"] < 2 or hw != hw:
+        return text + "."
+    inside = st["mean"] - hw <= pred <= st["mean"] + hw
+    return text + (": inside the interval." if inside else ": **outside** the interval.")
+
+
 def answers_section(lines, specs, sph, effect_rows=()):
     lines += ["## The answers so far", ""]
     d = os.path.join(RESULTS, "granular_gas", "diff_D.csv")
     rows = _status_rows(specs)
     for sp, g, st, cpu in rows:
-        lines.append(_answer(sp, g, st, cpu))
+        lines.append(_answer(sp, g, st, cpu) + _mass_scaling(sp, g, st))
     if not rows:
         lines.append("* No sequential study has finished pairs yet.")
     if os.path.exists(d):

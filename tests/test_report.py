@@ -75,3 +75,19 @@ def test_effect_figures_from_tables_only(tmp_path):
     for m in made:
         (tmp_path / m).unlink()
     assert effects_plots.plot_all(str(tmp_path), log=lambda s: None) == []
+
+
+def test_equal_energy_answer_states_the_mass_scaling_prediction():
+    """The paper's dimer (overlap D = d_s/2) sums to 32/27 of its union's mass, so hard particles at
+    equal energy predict D_unc/D_exact = sqrt(27/32) (closed form, not the library); the sentence
+    says whether the interval holds it, and other protocols and cases get none."""
+    sp = S.load(S.ROOT + "/studies/specs/dimer_equal_energy.toml")
+    g = sp["groups"][0]
+    pred = math.sqrt(27.0 / 32.0) - 1.0
+    inside = report._mass_scaling(sp, g, {"case": "uncorrected", "n": 5, "mean": -0.07, "halfwidth": 0.02})
+    outside = report._mass_scaling(sp, g, {"case": "uncorrected", "n": 5, "mean": -0.02, "halfwidth": 0.02})
+    assert f"{100 * pred:+.2f} %" in inside and inside.endswith("inside the interval.")
+    assert outside.endswith("**outside** the interval.")
+    assert report._mass_scaling(sp, g, {"case": "mass_only", "n": 5, "mean": 0.0, "halfwidth": 0.01}) == ""
+    assert report._mass_scaling(sp, dict(g, protocol="paired"), {"case": "uncorrected", "n": 5, "mean": 0.0,
+                                                                  "halfwidth": 0.01}) == ""
