@@ -378,6 +378,11 @@ def test_core_adapter_clump_matches_the_plain_float_terms():
     assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0)], [0.1], [PAPER_RHO], True) is None
     assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0, "x")], [0.1], [PAPER_RHO], True) is None
     assert cy._adapter_clump(_CORE["exact"], [(0.0, 0.0, 0.0)], [-0.1], [PAPER_RHO], True) is None
+    assert cy._adapter_clump(_CORE["exact"], None, [0.1], [PAPER_RHO], True) is None  # was a SystemError
+    assert cy._adapter_clump(_CORE["exact"], [0.0], [0.1], [PAPER_RHO], True) is None
+    for bad_row in (None, [1.0] * 10, [1.0] * 10 + ["x"]):
+        with pytest.raises(ValueError, match="state_errors"):
+            cy._core.state_errors(bad_row, [1.0] * 14)
     tri = [(0.0, 0.0, 0.0), (0.05, 0.0, 0.0), (0.025, 0.03, 0.0)]
     assert cy._adapter_clump(_CORE["pairwise"], tri, [0.04] * 3, [PAPER_RHO] * 3, True) is None
 

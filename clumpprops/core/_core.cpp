@@ -107,7 +107,10 @@ static void principal(carr inertia, carr moments, carr axes) {
 // Reads a python sequence of numbers (or of 3-sequences when width == 3) into out; false if it is not one.
 static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<double>& out) {
   PyObject* fast = PySequence_Fast(seq, "");
-  if (!fast) return false;
+  if (!fast) {
+    PyErr_Clear();
+    return false;
+  }
   bool ok = static_cast<std::size_t>(PySequence_Fast_GET_SIZE(fast)) == n;
   PyObject** items = PySequence_Fast_ITEMS(fast);
   for (std::size_t i = 0; ok && i < n; ++i) {
