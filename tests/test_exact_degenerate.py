@@ -381,6 +381,13 @@ def _through_one_point(rng, kind):
             w = _unit(rng)
             w -= (w @ e) * e
             cc = p + rng.uniform(0.15, 0.6) * rng.choice([-1.0, 1.0]) * (e + 10.0 ** rng.uniform(-9, -4) * w / np.linalg.norm(w))
+        elif kind == "near_coplanar":  # centres within 10^U(-12, -6) rad of the plane x = p_x
+            off = rng.uniform(-0.6, 0.6, 3)
+            off[0] = 0.0
+            if np.linalg.norm(off) < 0.15:
+                continue
+            off[0] = rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(-12, -6) * np.linalg.norm(off)
+            cc = p + off
         else:  # centres in one plane through p (a zero coordinate: exactly coplanar)
             off = rng.uniform(-0.6, 0.6, 3)
             off[0] = 0.0
@@ -396,9 +403,10 @@ def _through_one_point(rng, kind):
     return np.array(c), np.array(r)
 
 
-def _assert_invariant_under_random_motion(rng, c, r):
-    """exact() of the clump and of its image under a random rotation + translation agree to 1e-12
-    (plus the translation's round-off) in mass, centre of mass and inertia."""
+def motion_error(rng, c, r):
+    """(err, tol): the largest relative difference between exact() of the clump and of its image under a
+    random rotation + translation (mass; centre of mass / extent; inertia / its largest entry), and the
+    tolerance 1e-12 plus the translation's round-off.  Also used by tests/search_near_point.py."""
     L = extent(c, r)
     a = exact(c, r)
     R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
@@ -407,6 +415,13 @@ def _assert_invariant_under_random_motion(rng, c, r):
     tol = 1e-12 + 64 * np.finfo(float).eps * np.abs(t).max() / L
     err = max(abs(b.mass / a.mass - 1), np.max(np.abs(R.T @ (b.center_of_mass - t) - a.center_of_mass)) / L,
               rel(R.T @ b.inertia @ R, a.inertia))
+    return err, tol
+
+
+def _assert_invariant_under_random_motion(rng, c, r):
+    """exact() of the clump and of its image under a random rotation + translation agree to 1e-12
+    (plus the translation's round-off) in mass, centre of mass and inertia."""
+    err, tol = motion_error(rng, c, r)
     assert err <= tol, (err, c.tolist(), r.tolist())
 
 
