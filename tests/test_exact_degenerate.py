@@ -385,8 +385,9 @@ def _unit(rng):
     return u / np.linalg.norm(u)
 
 
-def _through_one_point(rng, kind):
-    """A few general spheres plus 3-5 spheres through one point p (tests the classes above)."""
+def _through_one_point(rng, kind, offsets=(-12, -6)):
+    """A few general spheres plus 3-5 spheres through one point p (tests the classes above); offsets: the
+    range of log10 of the out-of-plane offset for kind "near_coplanar"."""
     n = rng.integers(0, 4)
     c = list(rng.uniform(-0.6, 0.6, (n, 3)))
     r = list(rng.uniform(0.35, 0.7, n))
@@ -397,12 +398,12 @@ def _through_one_point(rng, kind):
             w = _unit(rng)
             w -= (w @ e) * e
             cc = p + rng.uniform(0.15, 0.6) * rng.choice([-1.0, 1.0]) * (e + 10.0 ** rng.uniform(-9, -4) * w / np.linalg.norm(w))
-        elif kind == "near_coplanar":  # centres within 10^U(-12, -6) rad of the plane x = p_x
+        elif kind == "near_coplanar":  # centres within 10^U(offsets) rad of the plane x = p_x
             off = rng.uniform(-0.6, 0.6, 3)
             off[0] = 0.0
             if np.linalg.norm(off) < 0.15:
                 continue
-            off[0] = rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(-12, -6) * np.linalg.norm(off)
+            off[0] = rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(*offsets) * np.linalg.norm(off)
             cc = p + off
         else:  # centres in one plane through p (a zero coordinate: exactly coplanar)
             off = rng.uniform(-0.6, 0.6, 3)
