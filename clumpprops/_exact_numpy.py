@@ -3,7 +3,10 @@
 ``method="exact"`` runs the compiled core (clumpprops/core/clumpprops.hpp).  This is the
 earlier, vectorised numpy implementation of the same mathematics with an independent
 arc classification (per-arc sign tests instead of coverage depth); tests compare the
-core with it on thousands of random and near-degenerate clumps.
+core with it on thousands of random and near-degenerate clumps.  It also keeps the
+earlier form of rule S (touching circles: a sagitta threshold, where the core decides and
+locates nearly touching crossings in double-double); the two differ on spheres through one
+point with nearly coplanar centres, which no test compares (docs/exact_method.md, 2a).
 
 Exact volume moments of a union of spheres with any overlap pattern.
 
@@ -54,7 +57,9 @@ _TAU_NESTED = 1e-13
 # _coincident_caps, _uncovered_caps and docs/exact_method.md, section 2a)
 _COINCIDENT = 1e-13
 # two circles of one unit sphere touch (do not cross) when the sagittas rho (1 - |cos alpha|) of
-# the arcs between their crossing points are both at most this (docs/exact_method.md, 2a, rule S)
+# the arcs between their crossing points are both at most this (the earlier rule S; the core now
+# decides nearly touching pairs in double-double, docs/exact_method.md, 2a: the per-arc sign tests
+# below need the snapping, they evaluate f_kj in double at points where it is at the round-off level)
 _TOUCHING = 1e-13
 
 

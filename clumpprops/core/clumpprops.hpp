@@ -32,9 +32,13 @@ constexpr double kRhoTangent = 1e-6;
 constexpr double kTauNested = 1e-13;
 // two cap circles of one unit sphere closer than this everywhere are one circle (prune_caps)
 constexpr double kCoincidentCaps = 1e-13;
-// two circles of one unit sphere touch (do not cross) when the sagittas rho (1 - |cos alpha|) of
-// the arcs between their crossing points are both at most this (rule S, docs/exact_method.md 2a)
-constexpr double kTouchingCircles = 1e-13;
+// rule S (touching circles, docs/exact_method.md 2a): a pair of circles of one unit sphere whose
+// crossing half-angle alpha (on the smaller circle) has |sin^2 alpha| below kNearTouchingSin2 is
+// decided and located in double-double (Arrangement::near_touching); it does not cross when it has
+// no crossing there or its half-chord rho sin(alpha) is at most kTouchingChord (two points closer
+// than that are not ordered reliably after rounding)
+constexpr double kNearTouchingSin2 = 1e-4;
+constexpr double kTouchingChord = 1e-14;
 // safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
 
@@ -95,6 +99,59 @@ inline void small_sort(T* a, int n, Less less) {
 inline double diamond(double x, double y) {
   if (y >= 0.0) return x >= 0.0 ? y / (x + y + (x + y == 0.0 ? 1.0 : 0.0)) : 1.0 - x / (-x + y);
   return x < 0.0 ? 2.0 - y / (-x - y) : 3.0 + x / (x - y);
+}
+
+// ------------------------------------------------------------------ double-double arithmetic
+// A value hi + lo with |lo| <= ulp(hi)/2 (about 106 bits), from error-free transformations: two_sum
+// (additions only) and two_prod (std::fma: exact on every IEEE platform, in hardware or in libm).
+// Used only for the crossing points of nearly touching circles (Arrangement::compute), which are rare.
+struct DD {
+  double hi, lo;
+};
+inline DD dd_two_sum(double a, double b) {
+  const double s = a + b, bb = s - a;
+  return {s, (a - (s - bb)) + (b - bb)};
+}
+inline DD dd_fast_two_sum(double a, double b) {  // |a| >= |b| (or a == 0)
+  const double s = a + b;
+  return {s, b - (s - a)};
+}
+inline DD dd_two_prod(double a, double b) {
+  const double p = a * b;
+  return {p, std::fma(a, b, -p)};
+}
+inline DD dd_add(DD a, DD b) {
+  DD s = dd_two_sum(a.hi, b.hi);
+  const DD t = dd_two_sum(a.lo, b.lo);
+  s.lo += t.hi;
+  s = dd_fast_two_sum(s.hi, s.lo);
+  s.lo += t.lo;
+  return dd_fast_two_sum(s.hi, s.lo);
+}
+inline DD dd_neg(DD a) { return {-a.hi, -a.lo}; }
+inline DD dd_sub(DD a, DD b) { return dd_add(a, dd_neg(b)); }
+inline DD dd_mul(DD a, DD b) {
+  DD p = dd_two_prod(a.hi, b.hi);
+  p.lo += a.hi * b.lo + a.lo * b.hi;
+  return dd_fast_two_sum(p.hi, p.lo);
+}
+inline DD dd_mul(DD a, double b) {
+  DD p = dd_two_prod(a.hi, b);
+  p.lo += a.lo * b;
+  return dd_fast_two_sum(p.hi, p.lo);
+}
+inline DD dd_sqrt(DD a) {  // a > 0
+  const double x = std::sqrt(a.hi);
+  const DD r = dd_sub(a, dd_two_prod(x, x));
+  return dd_fast_two_sum(x, r.hi / (2.0 * x));
+}
+inline DD dd_div(DD a, DD b) {
+  const double q1 = a.hi / b.hi;
+  DD r = dd_sub(a, dd_mul(b, q1));
+  const double q2 = r.hi / b.hi;
+  r = dd_sub(r, dd_mul(b, q2));
+  const double q3 = r.hi / b.hi;
+  return dd_add(dd_fast_two_sum(q1, q2), DD{q3, 0.0});
 }
 
 // ------------------------------------------------------------------ pair search
@@ -426,9 +483,58 @@ class Arrangement {
   // caps: K caps of one sphere, sorted by `other` (their rank for ties)
   void compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out);
 
+  // Whether circle a crosses cap b (s = sgn(n_a.n_b)) and, if so, cos and sin of the crossing half-angle
+  // on a, in double-double from the stored circles (model: below): the decision is right unless
+  // sin^2 alpha is below ~1e-32 / (rho_a |n_a -+ n_b|), and both values have relative error ~1e-16 (the
+  // double route: ~1e-16 / sin^2 alpha in sin alpha; docs/exact_method.md 2a, rule S).
+  static bool near_touching(const Circle& a, const Circle& b, double s, double& ca, double& sa);
+
  private:
   void choose_pole(int K, double* q);
 };
+
+inline bool Arrangement::near_touching(const Circle& a, const Circle& b, double s, double& ca, double& sa) {
+  // the model of a circle: the unit sphere cut by the plane u.N = H with N = n / |n| (unit to ~1e-32) and
+  // H, om = 1 - H, op = 1 + H from rho^2 / (1 +- h) on the side where it is small (as om, op in double),
+  // so its radius sqrt(om op) is rho to ~1e-16 relative also for tiny circles
+  auto model = [](const Circle& c, DD* N, DD& H, DD& om, DD& op) {
+    DD A{0.0, 0.0};
+    for (int x = 0; x < 3; ++x) A = dd_add(A, dd_two_prod(c.n[x], c.n[x]));
+    const DD len = dd_sqrt(A);
+    for (int x = 0; x < 3; ++x) N[x] = dd_div(DD{c.n[x], 0.0}, len);
+    const DD r2 = dd_two_prod(c.rho, c.rho);
+    if (c.h > 0.0) {
+      om = dd_div(r2, dd_two_sum(1.0, c.h));
+      op = dd_sub(DD{2.0, 0.0}, om);
+      H = dd_sub(DD{1.0, 0.0}, om);
+    } else {
+      op = dd_div(r2, dd_two_sum(1.0, -c.h));
+      om = dd_sub(DD{2.0, 0.0}, op);
+      H = dd_sub(op, DD{1.0, 0.0});
+    }
+  };
+  DD Na[3], Nb[3], Ha, oma, opa, Hb, omb, opb;
+  model(a, Na, Ha, oma, opa);
+  model(b, Nb, Hb, omb, opb);
+  // d = N_b - s N_a, d2 = |d|^2; for unit N: N_a.d = -s d2 / 2 and |N_a x d|^2 = d2 (1 - d2 / 4)
+  DD d2{0.0, 0.0};
+  for (int x = 0; x < 3; ++x) {
+    const DD dx = dd_sub(Nb[x], s > 0.0 ? Na[x] : dd_neg(Na[x]));
+    d2 = dd_add(d2, dd_mul(dx, dx));
+  }
+  // On plane a (u.N_a = H_a), u.N_b - H_b = u.d - (H_b - s H_a); with u = H_a N_a + v, |v|^2 = om_a op_a, this
+  // is v.d_perp - Y with d_perp = d + (s d2 / 2) N_a, |d_perp|^2 = X = d2 (1 - d2 / 4) and
+  // Y = (H_b - s H_a) + s H_a d2 / 2.  Hence cos alpha = Y / sqrt(W), sin^2 alpha = (W - Y^2) / W, W = om_a op_a X.
+  const DD X = dd_mul(d2, dd_sub(DD{1.0, 0.0}, dd_mul(d2, 0.25)));
+  const DD hd = dd_mul(dd_mul(Ha, d2), 0.5 * s);
+  const DD Y = dd_add(s > 0.0 ? dd_sub(Hb, Ha) : dd_add(Hb, Ha), hd);
+  const DD W = dd_mul(dd_mul(oma, opa), X);
+  const DD Z = dd_sub(W, dd_mul(Y, Y));
+  if (!(W.hi > 0.0 && Z.hi > 0.0)) return false;
+  ca = std::max(-1.0, std::min(1.0, Y.hi / std::sqrt(W.hi)));
+  sa = std::sqrt(Z.hi / W.hi);
+  return true;
+}
 
 inline void Arrangement::choose_pole(int K, double* q) {
   // candidate poles: 26 directions of a cube and 6 irrational ones.  The 1-form of the area is
@@ -565,19 +671,23 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       const double a = sd * (ca_c.rho * dot3(ca_c.e1, d)), b = sd * (ca_c.rho * dot3(ca_c.e2, d));
       const double Ra = std::sqrt(a * a + b * b);
       if (!(Ra > 0.0)) continue;
-      const double ca = -ma / Ra;
-      if (!(std::fabs(ca) < 1.0)) continue;
-      // rule S: circles that touch (the arcs between their two crossing points bulge by at most
-      // kTouchingCircles from the chord, on both circles) do not cross; each is then covered by
-      // the other cap or not, by the sign of M (docs/exact_method.md, section 2a)
-      if (ca_c.rho * (1.0 - std::fabs(ca)) <= kTouchingCircles) {
-        const double ab = cb_c.rho * dot3(cb_c.e1, d), bb = cb_c.rho * dot3(cb_c.e2, d);
-        const double Rb = std::sqrt(ab * ab + bb * bb);
-        const double cb_a = Rb > 0.0 ? -(on_j ? mk : mj) / Rb : 1.0;
-        if (cb_c.rho * (1.0 - std::fabs(cb_a)) <= kTouchingCircles) continue;
+      // f_ab > 0 (inside cap b) for |t - phi| < alpha, cos alpha = -M / R.  Nearly touching circles
+      // (|sin^2 alpha| small, either side of 1 in |cos alpha|): the ~1e-16 error of cos alpha in double is
+      // an error ~1e-16 / sin(alpha) in alpha, so the crossing decision and the near-concurrent crossing
+      // points of three such circles would be inconsistent; both come from double-double instead
+      double ca = -ma / Ra;
+      const double sa2 = (1.0 - ca) * (1.0 + ca);
+      double sa = 0.0;
+      if (std::fabs(sa2) < kNearTouchingSin2) {
+        if (!near_touching(ca_c, cb_c, s, ca, sa)) continue;
+      } else {
+        if (!(std::fabs(ca) < 1.0)) continue;
+        sa = std::sqrt(sa2);
       }
+      // rule S: circles that do not cross, or whose two crossing points are at most 2 kTouchingChord
+      // apart, touch; each is then covered by the other cap or not, by the sign of M (|M| ~ R there)
+      if (ca_c.rho * sa <= kTouchingChord) continue;
       cross_[kj] = cross_[jk] = 1;
-      const double sa = std::sqrt((1.0 - ca) * (1.0 + ca));
       const double cp = a / Ra, sp = b / Ra;
       // leave at phi + ac, enter at phi - ac (f_ab = M + R cos(t - phi) decreases through 0 at phi + ac)
       const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
