@@ -1128,17 +1128,7 @@ def _build_one(Y, checked, com, m_c, off, w, q):
     ox, oy, oz = com
     for sb, (x, y, z) in zip(states, pos):  # build near the origin
         sb.pos = (x - ox, y - oy, z - oz)
-    corr = Y.Body()  # as _new_correction, inlined
-    corr.shape = _correction_shape(Y)
-    corr.material = mat
-    plain = _PLAIN_STATE.get(type(mat))
-    if not plain:
-        st = mat.newAssocState()
-        if plain is None:
-            _PLAIN_STATE[type(mat)] = type(st) is Y.State
-        corr.state = st
-    corr.bounded = False
-    corr.mask = mask
+    corr = _new_correction(Y, spheres, mat, mask)
     st = corr.state
     dx, dy, dz = off
     st.mass = m_c

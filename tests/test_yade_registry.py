@@ -383,6 +383,9 @@ def test_core_adapter_clump_matches_the_plain_float_terms():
     for bad_row in (None, [1.0] * 10, [1.0] * 10 + ["x"]):
         with pytest.raises(ValueError, match="state_errors"):
             cy._core.state_errors(bad_row, [1.0] * 14)
+    for bad_target in (None, [1.0] * 13, [1.0] * 13 + ["x"]):
+        with pytest.raises(ValueError, match="state_errors"):
+            cy._core.state_errors([1.0] * 11, bad_target)
     tri = [(0.0, 0.0, 0.0), (0.05, 0.0, 0.0), (0.025, 0.03, 0.0)]
     assert cy._adapter_clump(_CORE["pairwise"], tri, [0.04] * 3, [PAPER_RHO] * 3, True) is None
 

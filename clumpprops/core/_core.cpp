@@ -104,14 +104,16 @@ static void principal(carr inertia, carr moments, carr axes) {
   for (std::int64_t m = 0; m < M; ++m) clumpprops::eigh3(I + 9 * m, w + 3 * m, V + 9 * m);
 }
 
-// Reads a python sequence of numbers (or of 3-sequences when width == 3) into out; false if it is not one.
-static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<double>& out) {
+// Reads a python sequence of n numbers (or of n 3-sequences when width == 3) into out; false if it is
+// not one.  prefix: the sequence may be longer, its first n items are read.
+static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<double>& out, bool prefix = false) {
   PyObject* fast = PySequence_Fast(seq, "");
   if (!fast) {
     PyErr_Clear();
     return false;
   }
-  bool ok = static_cast<std::size_t>(PySequence_Fast_GET_SIZE(fast)) == n;
+  const std::size_t size = static_cast<std::size_t>(PySequence_Fast_GET_SIZE(fast));
+  bool ok = prefix ? size >= n : size == n;
   PyObject** items = PySequence_Fast_ITEMS(fast);
   for (std::size_t i = 0; ok && i < n; ++i) {
     if (width == 1) {
@@ -254,15 +256,8 @@ static py::object adapter_clump(int method, py::handle pts, py::handle radii, py
 static py::tuple state_errors(py::handle row_obj, py::handle target_obj) {
   std::vector<double> row, t;
   if (!read_numbers(row_obj.ptr(), 11, 1, row)) throw std::invalid_argument("state_errors: row must be 11 numbers");
-  PyObject* fast = PySequence_Fast(target_obj.ptr(), "state_errors: target must be a sequence");
-  if (!fast) throw py::error_already_set();
-  const Py_ssize_t nt = PySequence_Fast_GET_SIZE(fast);
-  Py_DECREF(fast);
-  if (nt < 14) throw std::invalid_argument("state_errors: target must hold at least 14 numbers");
-  PyObject* head = PySequence_GetSlice(target_obj.ptr(), 0, 14);
-  const bool ok = head && read_numbers(head, 14, 1, t);
-  Py_XDECREF(head);
-  if (!ok) throw std::invalid_argument("state_errors: target must be numbers");
+  if (!read_numbers(target_obj.ptr(), 14, 1, t, true))
+    throw std::invalid_argument("state_errors: target must start with 14 numbers");
   double x = row[7], y = row[8], z = row[9], w = row[10];
   const double n = std::sqrt(x * x + y * y + z * z + w * w);
   x /= n, y /= n, z /= n, w /= n;
@@ -275,8 +270,7 @@ static py::tuple state_errors(py::handle row_obj, py::handle target_obj) {
     for (int l = 0; l < 3; ++l) {
       const double e = std::fabs(R[3 * i] * row[4] * R[3 * l] + R[3 * i + 1] * row[5] * R[3 * l + 1] +
                                  R[3 * i + 2] * row[6] * R[3 * l + 2] - I[3 * i + l]);
-      if (e > e_i || std::isnan(e)) e_i = e;
-      if (std::isnan(e_i)) break;
+      if (e > e_i || std::isnan(e)) e_i = e;  // a NaN stays: nothing compares greater
     }
   const double tr = std::max(I[0] + I[4] + I[8], 0.0);
   const double gyr = mass > 0 ? std::sqrt(tr / (2.0 * mass)) : 1.0;
