@@ -577,8 +577,11 @@ def decide(key, a, g):
     """Largest factor below which every factor is safe: the predicted D error |est| + 2 se of the
     collision map, plus half the largest gas energy drift at that factor (a drift delta of the
     energy moves D ~ sqrt(T) by at most delta/2), is under D_TOL, and every gas run at that
-    factor stayed within the study's energy tolerance."""
+    factor stayed within the study's energy tolerance.  When gas runs were made, a factor above the
+    largest one they checked is not declared safe (the drift grows with dt; below the smallest
+    checked factor it only shrinks)."""
     per = []
+    gas_max = max((x["factor"] for x in g["runs"]), default=None) if g is not None else None
     for r in a["rows"]:
         d_map = abs(r["D_rel_pred"]) + 2 * r["D_rel_pred_se"]
         gas_ok, d_total = None, None
@@ -589,6 +592,8 @@ def decide(key, a, g):
                 gas_ok = drift < E_TOL and all(x["ok"] for x in rs)
                 d_total = d_map + 0.5 * drift
         ok = (d_total if d_total is not None else d_map) < D_TOL and gas_ok is not False
+        if gas_max is not None and r["factor"] > gas_max + 1e-12:
+            ok = False  # extrapolated: no gas run checked the energy drift this far
         per.append({"factor": r["factor"], "d_map": d_map, "d_total": d_total, "gas_ok": gas_ok, "ok": ok})
     best = None
     for d in sorted(per, key=lambda d: d["factor"]):

@@ -95,3 +95,20 @@ def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
         errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
         assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
     assert errs[1.0] < 1e-4 and errs[0.5] < errs[1.0] / 3         # second order
+
+
+def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_gas_check():
+    """The rule of docs/timestep.md: every factor up to the chosen one is safe; a factor above the
+    largest gas-checked one is not declared safe however small its predicted D error."""
+    rows = [{"factor": f, "D_rel_pred": -1e-4 * f * f, "D_rel_pred_se": 1e-5} for f in (0.25, 0.5, 1.0, 1.5, 2.0)]
+    runs = [{"factor": f, "energy_drift": 2e-4 * f * f, "ok": True} for f in (0.5, 1.0, 1.5)]
+    d = bt.decide("x", {"rows": rows}, {"runs": runs})
+    assert d["largest_safe_factor"] == 1.5
+    assert [p["ok"] for p in d["per_factor"]] == [True, True, True, True, False]
+    runs[1] = dict(runs[1], energy_drift=2e-3)         # over the energy tolerance at 1.0
+    assert bt.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
+    runs[1] = dict(runs[1], energy_drift=1e-4, ok=False)   # a run flagged by its own checks
+    assert bt.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
+    rows[2] = dict(rows[2], D_rel_pred=-3e-3)           # the predicted D error too large at 1.0
+    assert bt.decide("x", {"rows": rows}, None)["largest_safe_factor"] == 0.5
+    assert bt.decide("x", {"rows": rows[:2]}, None)["largest_safe_factor"] == 0.5  # map only: the map decides
