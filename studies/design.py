@@ -180,6 +180,6 @@ def describe(gi, g, st):
     hw = st["halfwidth"]
     hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
     proj = "" if st.get("n_needed") is None else f", projected {st['n_needed']} pairs for the target"
-    return (f"group {gi} ({g['shape']}: {st['case']} vs exact): {st['state']}; {st['n']} pairs, 95 % half-width "
+    return (f"group {gi} ({g['shape']}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

@@ -193,7 +193,8 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     sp2, rdir2 = _sequential(tmp_path / "b", noise_sd=0.3, budget=1.0)   # 24 runs x 600 s = 4 CPU-h > 1
     extra2, status2 = design.plan(sp2, rdir2)
     assert extra2[0] == [] and status2[0]["state"] == "budget spent"
-    assert "budget" in design.describe(0, sp2["groups"][0], status2[0])
+    line = design.describe(0, sp2["groups"][0], status2[0])
+    assert "budget" in line and f"vs exact, {sp2['groups'][0]['protocol']})" in line
     sp3, rdir3 = _sequential(tmp_path / "c", noise_sd=0.3, max_seeds=12)
     extra3, status3 = design.plan(sp3, rdir3)
     assert extra3[0] == [] and status3[0]["state"] == "max_seeds reached"
