@@ -1,7 +1,8 @@
 """The programme's figures, drawn from ``results/effects.csv`` and ``results/sphere_gas.csv`` only.
 
 effects.png        D_case/D_exact - 1 (paired by seed, 95 % bars) against the summed clump's mass error
-                   and against its k^2 = I/m error: one point per shape x overlap x protocol x case
+                   and against its k^2 = I/m error: one point per shape x overlap x protocol x case;
+                   with equal-energy rows, the hard-particle mass scaling (1 + mass error)^(-1/2) - 1
 decomposition.png  the paper's dimer, paired protocol: uncorrected, mass_only, inertia_only side by side
                    at each Young's modulus (the mass/inertia decomposition and the stiffness series)
 protocol.png       uncorrected vs exact per shape: paired against equal-energy protocol, with the
@@ -51,6 +52,11 @@ def plot_all(results, log=print):
                       mfc="none" if prot != "paired" else None, label=f"{shape}, {case}, {prot}")
             _bars(axes[0], 100 * g["mass_error"].to_numpy(), g, **kw)
             _bars(axes[1], 100 * g["k2_error"].to_numpy(), g, **dict(kw, label=None))
+        if (eff["protocol"] == "equal_energy").any():  # hard particles, equal energy: D ~ m^-1/2
+            xm = 100 * eff["mass_error"].to_numpy(dtype=float)
+            x = np.linspace(max(min(0.0, xm.min()) - 2, -50), xm.max() + 2, 200)
+            axes[0].plot(x, 100 * ((1 + x / 100) ** -0.5 - 1), "k--", lw=1,
+                         label="equal energy, hard particles: (1 + mass error)^(-1/2) − 1")
         for ax, what in zip(axes, ("mass error of the summed clump, m_sum/m_exact − 1 (%)",
                                    "k² = I/m error of the summed clump (%)")):
             ax.axhline(0, color="k", lw=0.8)
