@@ -28,10 +28,18 @@ COLUMNS = ("shape", "overlap", "protocol", "youngs_modulus", "case", "n_pairs", 
 
 
 def _pair_key(params):
-    """Everything of a run's parameters but case, protocol, seed and sphere options: runs with the same
-    pair key and seed are a paired comparison."""
+    """Everything of a run's parameters but case, protocol, seed, sphere options and spin pairing:
+    runs with the same pair key and seed are a paired comparison."""
     p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed")}
+    p["gas"] = {k: v for k, v in p["gas"].items() if k != "spin_pairing"}
     return S.run_key(p)
+
+
+def protocol_label(params):
+    """The protocol column: the run's protocol, with "_same_spin" for runs started with every case
+    at the exact case's angular velocities (``gas.spin_pairing = "same"``), whose thermal speeds
+    drift from exact's (studies.gas_model.initial_state)."""
+    return params["protocol"] + ("_same_spin" if S.spin_pairing_of(params) == "same" else "")
 
 
 def collect(specs):
@@ -46,7 +54,7 @@ def collect(specs):
                 continue
             p = rec["params"]
             d = design.run_d(rec, sp["analysis"]["t_eq"])["D"]
-            by.setdefault(_pair_key(p), {}).setdefault(p["seed"], {})[(p["case"], p["protocol"])] = (d, rec)
+            by.setdefault(_pair_key(p), {}).setdefault(p["seed"], {})[(p["case"], protocol_label(p))] = (d, rec)
             facts[_pair_key(p)] = p
     return by, facts
 

@@ -48,7 +48,8 @@ SCHEMA = {
     "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
                  "poisson": (_NUM, True, None, "poisson")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
-            "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start")},
+            "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start"),
+            "spin_pairing": (str, False, "own", "spin_pairing")},
     "run": {"t_end": (_NUM, True, None, "pos"), "rec_interval": (_NUM, True, None, "pos"),
             "dt_factor": (_NUM, True, None, "pos"), "energy_tol": (_NUM, False, 1e-3, "pos"),
             "momentum_tol": (_NUM, False, 1e-9, "pos"), "progress_period": (_NUM, False, 20.0, "pos")},
@@ -96,6 +97,8 @@ def _check_value(where, v, typ, check):
         raise SpecError(f"{where}: must be in (-1, 0.5), got {v!r}")
     if check == "yade" and v not in YADE_VERSIONS:
         raise SpecError(f"{where}: YADE version must be one of {', '.join(YADE_VERSIONS)}, got {v!r}")
+    if check == "spin_pairing" and v not in gm.SPIN_PAIRINGS:
+        raise SpecError(f"{where}: unknown spin pairing {v!r} (known: {', '.join(gm.SPIN_PAIRINGS)})")
     if check == "start" and v not in gm.STARTS:
         raise SpecError(f"{where}: must be one of {', '.join(gm.STARTS)}, got {v!r}")
     if check == "protocol" and v not in gm.PROTOCOLS:
@@ -253,6 +256,7 @@ def resolve_run(spec, g, case, seed):
     spheres = dict(spec["spheres"], density=mat["density"])
     cres = gm.resolve_case(props, case, spheres)
     protocol = gm.effective_protocol(cres, props["exact"]["mass"], g["protocol"])
+    spin_pairing = gas.pop("spin_pairing", "same")
     p = {
         "model_version": MODEL_VERSION,
         "yade": spec["study"]["yade"],
@@ -266,7 +270,33 @@ def resolve_run(spec, g, case, seed):
     }
     if case == "spheres":
         p["spheres"] = {"diameter": spec["spheres"]["diameter"], "mass": spec["spheres"]["mass"]}
+    if spin_pairing == "own" and spin_pairing_matters(p, cres, props["linear"]):
+        p["gas"]["spin_pairing"] = "own"
     return p
+
+
+def spin_pairing_matters(params, case_res, linear):
+    """True when ``gas.spin_pairing`` changes a run's initial state (see
+    :func:`studies.gas_model.initial_state`): an equipartition start of a clump case other than
+    exact, in the paired protocol, or in equal energy for an aspherical clump.  Only then is
+    ``"own"`` part of the run's parameters (and key); elsewhere both pairings give the same state,
+    so runs made before the option existed keep their keys."""
+    return (params["gas"].get("start") == "equipartition" and case_res["body"] == "clump"
+            and params["case"] != "exact" and (params["protocol"] == "paired" or not linear))
+
+
+def spin_pairing_of(params):
+    """The spin pairing a run record was made with: "own", "same", or None where it does not matter
+    (records made before the option existed carry none and were made with "same")."""
+    g = params["gas"]
+    if g.get("spin_pairing"):
+        return g["spin_pairing"]
+    if g.get("start") != "equipartition" or params["case"] in ("exact", "spheres"):
+        return None
+    if params["protocol"] == "paired":
+        return "same"
+    linear = shp.properties(params["shape"]["definition"], params["material"]["density"])["linear"]
+    return None if linear else "same"
 
 
 def run_key(params):
@@ -313,7 +343,7 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     case_tensor = np.asarray(props[cres["inertia_source"] or "exact"]["inertia"])
     pos, ori, vel, angvel = gm.initial_state(
         p["seed"], n, box, rb, cres, ex["mass"], np.asarray(ex["inertia"]), case_tensor, p["protocol"],
-        gas["energy_per_particle"], gas["start"], props["linear"])
+        gas["energy_per_particle"], gas["start"], props["linear"], spin_pairing=gas.get("spin_pairing", "same"))
     r_min = min(props["radii"])
     dt = run["dt_factor"] * r_min * math.sqrt(mat["density"] / mat["youngs_modulus"])   # x P-wave step
     n_steps = int(round(run["t_end"] / dt))

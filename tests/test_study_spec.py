@@ -279,8 +279,10 @@ def test_paper_spec_gives_the_first_versions_initial_conditions(case, protocol):
 
 
 def test_equipartition_start_shares_the_energy_and_is_paired():
+    """spin_pairing = "same" (the first equilibrated runs): every paired case gets exact's spins."""
     r = raw()
     r["gas"]["start"] = "equipartition"
+    r["gas"]["spin_pairing"] = "same"
     r["gas"]["n_particles"] = 200
     r["groups"].append({"shape": "dimer", "cases": ["uncorrected"], "protocol": "equal_energy", "seeds": [2]})
     sp = S.validate(r)
@@ -324,3 +326,98 @@ def test_equipartition_for_an_aspherical_shape_uses_its_principal_moments():
     assert e_r == pytest.approx(3000 * 3.75 / 2, rel=1e-12)
     assert rin["body"]["route"] == "aspherical" and rin["rot_dof"] == 3
     np.testing.assert_allclose(np.einsum("nij,nkj->nik", ori, ori), np.broadcast_to(np.eye(3), ori.shape), atol=1e-14)
+
+
+def _own_vs_same(shape, n=4000, seed=3):
+    """Run inputs of every (case, protocol) for both spin pairings, an equipartition start."""
+    out = {}
+    for pairing in ("own", "same"):
+        r = raw()
+        r["study"]["yade"] = "2025.2"
+        r["gas"].update(start="equipartition", n_particles=n, spin_pairing=pairing)
+        r["shapes"]["s"] = shape
+        r["groups"] = [{"shape": "s", "cases": ["exact", "uncorrected", "mass_only", "inertia_only"], "seeds": [seed]},
+                       {"shape": "s", "cases": ["uncorrected"], "protocol": "equal_energy", "seeds": [seed]}]
+        sp = S.validate(r)
+        out[pairing] = {(x["case"], x["protocol"]): x for x in S.runs(sp)}
+    return out
+
+
+def _sqrtm(a):
+    w, V = np.linalg.eigh(a)
+    return V @ np.diag(np.sqrt(w)) @ V.T
+
+
+def _state(run):
+    rin = S.run_input(run["params"])
+    ori = np.asarray(rin["initial"]["ori"]).reshape(-1, 3, 3)
+    v, w = np.asarray(rin["initial"]["vel"]), np.asarray(rin["initial"]["angvel"])
+    return rin, v, np.einsum("nji,nj->ni", ori, w)           # body-frame angular velocities
+
+
+@pytest.mark.parametrize("shape", [{"kind": "dimer", "sphere_diameter": 0.1333, "overlap": 0.5},
+                                   {"kind": "trimer_triangle", "sphere_diameter": 0.1333, "overlap": 0.5},
+                                   {"kind": "tetrahedron", "sphere_diameter": 0.1333, "overlap": 0.5}],
+                         ids=["dimer", "trimer_triangle", "tetrahedron"])
+def test_own_spin_pairing_starts_every_case_in_its_own_equipartition(shape):
+    """spin_pairing = "own": paired velocities, and each case's spins at equipartition at the
+    temperature of its own translational motion (what the paper's zero-spin start relaxes to):
+    rotational energy per rotational degree of freedom = translational energy per translational
+    one, and kT/2 about each of the case's principal axes; so every paired case has exact's
+    thermal speed.  Exact's state, and a linear clump's equal-energy state, do not change."""
+    runs = _own_vs_same(shape)
+    props = shp.properties(shape, 1140.0)
+    rot_dof = 2 if props["linear"] else 3
+    rin_e, v_e, wb_e = _state(runs["own"][("exact", "paired")])
+    I_e = np.asarray(props["exact"]["inertia"])
+    _, v_es, wb_es = _state(runs["same"][("exact", "paired")])
+    np.testing.assert_array_equal(v_e, v_es)
+    np.testing.assert_array_equal(wb_e, wb_es)
+    assert runs["own"][("exact", "paired")]["key"] == runs["same"][("exact", "paired")]["key"]
+    n = len(v_e)
+    for case, prot in (("uncorrected", "paired"), ("mass_only", "paired"), ("inertia_only", "paired"),
+                       ("uncorrected", "equal_energy")):
+        own, same = runs["own"][(case, prot)], runs["same"][(case, prot)]
+        rin, v, wb = _state(own)
+        m = rin["body"]["mass"]
+        src = gm.CASE_SOURCES[case][1]
+        I = np.asarray(props["exact" if src == "exact" else "sum"]["inertia"])
+        e_t = 0.5 * m * np.sum(v ** 2)
+        e_r = 0.5 * np.einsum("ni,ij,nj->", wb, I, wb)
+        assert e_r / rot_dof == pytest.approx(e_t / 3, rel=1e-12), case       # equipartition in total
+        kT = 2 * e_t / (3 * n)
+        w_ax, V = np.linalg.eigh(I)
+        wp = wb @ V                                                          # principal frame
+        e_axis = 0.5 * w_ax * np.mean(wp ** 2, axis=0)
+        live = e_axis > 1e-6 * kT                                            # a dimer: none about its axis
+        assert live.sum() == rot_dof
+        np.testing.assert_allclose(e_axis[live], kT / 2, rtol=0.08)          # kT/2 per axis (4000 draws)
+        # covariance exactly kT I^-1 from exact's normal draws z: I^(1/2) w = s R z with R orthogonal,
+        # so |I^(1/2) w| / |I_exact^(1/2) w_exact| is one constant over the particles
+        ratio = np.linalg.norm(wb @ _sqrtm(I), axis=1) / np.linalg.norm(wb_e @ _sqrtm(I_e), axis=1)
+        assert np.ptp(ratio) < 1e-9 * ratio.mean(), (case, prot, np.ptp(ratio) / ratio.mean())
+        if prot == "paired":
+            np.testing.assert_array_equal(v, v_e)                            # paired velocities
+            kT_e = 2 * 0.5 * rin_e["body"]["mass"] * np.sum(v_e ** 2) / (3 * n)
+            assert kT / m == pytest.approx(kT_e / rin_e["body"]["mass"], rel=1e-12)   # exact's thermal speed
+            assert own["key"] != same["key"] and own["params"]["gas"]["spin_pairing"] == "own"
+            assert S.spin_pairing_of(own["params"]) == "own" and S.spin_pairing_of(same["params"]) == "same"
+        elif props["linear"]:   # equal energy, linear clump: the two pairings give one state and one key
+            _, v_s, wb_s = _state(same)
+            np.testing.assert_array_equal(v, v_s)
+            np.testing.assert_allclose(wb, wb_s, rtol=1e-13, atol=1e-13 * np.abs(wb).max())
+            assert own["key"] == same["key"] and S.spin_pairing_of(own["params"]) is None
+        else:                   # equal energy, aspherical: the case's own covariance, a new key
+            assert own["key"] != same["key"] and S.spin_pairing_of(same["params"]) == "same"
+    # the "same" pairing really is out of equipartition for a paired case whose k^2 differs
+    rin, v, wb = _state(runs["same"][("uncorrected", "paired")])
+    I = np.asarray(props["sum"]["inertia"])
+    ratio = (0.5 * np.einsum("ni,ij,nj->", wb, I, wb) / rot_dof) / (0.5 * rin["body"]["mass"] * np.sum(v ** 2) / 3)
+    assert abs(ratio - 1) > 0.05
+
+
+def test_spin_pairing_is_validated():
+    r = raw()
+    r["gas"]["spin_pairing"] = "paired"
+    with pytest.raises(S.SpecError, match="gas.spin_pairing"):
+        S.validate(r)
