@@ -198,3 +198,31 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     sp3, rdir3 = _sequential(tmp_path / "c", noise_sd=0.3, max_seeds=12)
     extra3, status3 = design.plan(sp3, rdir3)
     assert extra3[0] == [] and status3[0]["state"] == "max_seeds reached"
+
+
+def test_same_spin_report_divides_out_the_thermal_speed_drift(tmp_path):
+    """studies.report on a spin_pairing = "same" spec: the per-seed ratio r of translational energy
+    per unit mass (case over exact) and D ratio are read from the records, and the bullet divides
+    sqrt(r) out.  Synthetic: the same walkers (D ratio 1) with a case mass 10 % larger, so
+    r = 1/1.1 and the drift-free effect is sqrt(1.1) - 1 = +4.9 %."""
+    from studies import report
+
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 7))}],
+                  start="equipartition")
+    sp["gas"]["spin_pairing"] = "same"
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(11)
+    frames = {}
+    for run in S.runs(sp):
+        if run["seed"] not in frames:
+            frames[run["seed"]] = frames_of(rng, 216, 400.0, 0.25)
+        fr, v0 = frames[run["seed"]]
+        write_record(rdir, run, fr, v0, [0.0], 100.0)          # case_body mass 2.2 vs exact's 2.0
+    pairs = report.same_spin_pairs(sp)["uncorrected"]
+    assert len(pairs) == 6
+    for _, d_ratio, r in pairs:
+        assert d_ratio == pytest.approx(1.0, rel=1e-12) and r == pytest.approx(2.0 / 2.2, rel=1e-12)
+    (line,) = report._same_spin_answers([sp])
+    assert "+0.00 % [+0.00, +0.00] %" in line and "-4.65 %" in line and "+4.88 %" in line
+    sp["gas"]["spin_pairing"] = "own"
+    assert report._same_spin_answers([sp]) == []
