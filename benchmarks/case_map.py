@@ -1,0 +1,173 @@
+"""The effect of each case's mass properties on D, predicted from binary collisions (issue 12).
+
+    .venv/bin/python benchmarks/case_map.py                         # the paper's dimer, 10,000 collisions
+    .venv/bin/python benchmarks/case_map.py --pairs 2000 --quick    # a look (~1 CPU-min)
+
+An independent route to the gas study's answers, at a few CPU-minutes instead of CPU-days.  In the
+first Chapman-Enskog approximation (Mason-Monchick for bodies with rotation) the self-diffusion
+coefficient of a dilute gas is [D]_1 = 3 kT / (8 n m Omega11), with the collision integral
+
+    Omega11 = sqrt(kT / 2 pi mu) int exp(-gamma^2) gamma^5 Q1(g) dgamma,   gamma^2 = mu g^2 / 2kT,
+
+Q1 = int (1 - g'.g / g^2) dsigma the momentum-transfer cross-section averaged over orientations
+and spins at equilibrium (g' != g when translation and rotation exchange energy).  Drawing the
+collisions as the dt study does (``bench_timestep.make_pairs``: gamma^2 ~ Gamma(2), the
+collision-flux weight; impact parameter uniform over a disc; equilibrium orientations and spins),
+Omega11 ~ sqrt(kT/mu) <gamma^2 q>, q = 1 - g'.g/g^2, and for two cases of one shape
+
+    D_case / D_exact = sqrt((kT_c/m_c) / (kT_e/m_e)) <gamma^2 q_exact> / <gamma^2 q_case>.
+
+The same collision courses (the same gamma, impact parameters, orientations and normal draws of
+the spins) are run in YADE for every case, so the ratio has a paired standard error over the
+collisions.  Each case's state is the gas study's (``studies.gas_model.initial_state``,
+``spin_pairing = "own"``): ``paired``, the exact case's translational velocities and the case's
+spins at equipartition at its own temperature kT_c = kT_e m_c/m_e; ``equal_energy``, velocities
+scaled by sqrt(m_e/m_c) and spins at kT_e.  Hard particles would give exactly 1 (paired, a case
+with exact's k^2) or sqrt(m_e/m_c) (equal energy); everything else is the Hertz contact's
+softness and the coupling of translation to rotation, which this measures.
+
+What it is not: the full Boltzmann D (for the sphere gas the first approximation is 1.7 % below it,
+a factor that largely cancels in a ratio of two similar cases), and not a gas measurement; the
+gas study is the check.  Linear clumps only (``--shape`` takes dimer shapes): their spins are
+isotropic about the axis, so a case's spins are exact's rescaled.
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_timestep as bt  # noqa: E402
+
+ROOT = bt.ROOT
+OUT = os.path.join(ROOT, "benchmarks", "results", "case_map.json")
+CASES = [("uncorrected", "paired"), ("mass_only", "paired"), ("inertia_only", "paired"),
+         ("mass_scaled", "paired"), ("uncorrected", "equal_energy")]
+# mass_scaled: not a gas-study case; the summed mass with the inertia scaled by the same factor
+# (k^2 = I/m exact).  Hard particles cannot tell it from exact, so its effect is the contact's
+# softness alone: a mass scaled by lambda at fixed velocities acts as E / lambda.
+
+
+def case_input(base, shape, case, protocol):
+    """The exact collision courses ``base`` (bench_timestep.make_pairs) with the body and the state of
+    ``case`` in ``protocol`` (see the module docstring).  Returns (input, kT/m ratio to exact)."""
+    props = bt.shp.properties(shape, bt.MATERIAL["density"])
+    if not props["linear"]:
+        raise SystemExit("case_map: linear clumps only (their spins are isotropic about the axis)")
+    ex = bt.gm.resolve_case(props, "exact")
+    if case == "mass_scaled":
+        lam = props["sum"]["mass"] / props["exact"]["mass"]
+        cr = dict(ex, mass=ex["mass"] * lam, moments=[lam * m for m in ex["moments"]])
+    else:
+        cr = bt.gm.resolve_case(props, case)
+    m_e, m_c = ex["mass"], cr["mass"]
+    i_e, i_c = float(np.max(ex["moments"])), float(np.max(cr["moments"]))   # I_perp
+    if protocol == "paired":
+        v_scale, kt_ratio = 1.0, m_c / m_e                 # kT_c / kT_e
+    else:
+        v_scale, kt_ratio = math.sqrt(m_e / m_c), 1.0
+    w_scale = math.sqrt(kt_ratio * i_e / i_c)             # spins at equipartition at kT_c with I_c
+    inp = dict(base)
+    inp["body"] = {"builder": cr["builder"], "route": cr["route"], "mass": m_c, "moments": cr["moments"],
+                   "members": props["members"], "radii": props["radii"]}
+    inp["vel"] = (np.asarray(base["vel"]) * v_scale).tolist()
+    inp["angvel"] = (np.asarray(base["angvel"]) * w_scale).tolist()
+    inp["kT"] = base["kT"] * kt_ratio
+    return inp, kt_ratio * m_e / m_c
+
+
+def ratio(x, q_e, q_c, kt_m_ratio, full=False):
+    """D_case/D_exact - 1 = sqrt(kt_m_ratio) <x q_e>/<x q_c> - 1 and its standard error over the
+    collisions (delta method; the collisions are the independent units, paired across cases).
+    ``full``: also the per-collision influence values (their mean is 0), for differences of ratios."""
+    a, b = x * q_e, x * q_c
+    ma, mb = a.mean(), b.mean()
+    r = math.sqrt(kt_m_ratio) * ma / mb
+    d = r * (a / ma - b / mb)                   # influence of each collision on r
+    se = float(d.std(ddof=1) / math.sqrt(len(d)))
+    return (r - 1.0, se, d) if full else (r - 1.0, se)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--pairs", type=int, default=10000)
+    ap.add_argument("--seed", type=int, default=17)
+    ap.add_argument("--factor", type=float, default=0.5, help="dt factor (the studies: 0.5 or 1.0)")
+    ap.add_argument("--overlap", type=float, default=0.5, help="dimer overlap D/d_s")
+    ap.add_argument("--youngs-modulus", type=float, default=None, help="Pa (default: the paper's 1e7)")
+    ap.add_argument("--workdir", default=None, help="keep the YADE runs here (reused by a repeated call)")
+    ap.add_argument("--out", default=OUT)
+    ap.add_argument("--quick", action="store_true", help="do not write --out")
+    a = ap.parse_args()
+    if a.youngs_modulus:
+        bt.MATERIAL["youngs_modulus"] = a.youngs_modulus
+    shape = {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": a.overlap}
+    work = a.workdir or tempfile.mkdtemp(prefix="case_map-")
+    os.makedirs(work, exist_ok=True)
+    t0 = time.time()
+    base = bt.make_pairs(shape, a.pairs, a.seed)
+    # the lattice of pairs 1.5x wider: the faster spins of some cases must not reach a neighbour
+    p = np.asarray(base["pos"])
+    mid = 0.5 * (p[0::2] + p[1::2])
+    p += np.repeat(0.5 * mid, 2, axis=0)
+    base["pos"], base["spacing"], base["lattice"] = p.tolist(), 1.5 * base["spacing"], (1.5 * mid).tolist()
+    tag = f"d{a.overlap}-E{bt.MATERIAL['youngs_modulus']:g}-n{a.pairs}-s{a.seed}"
+    runs = {("exact", "paired"): (base, 1.0)}
+    for case, prot in CASES:
+        runs[(case, prot)] = case_input(base, shape, case, prot)
+    res, cpu = {}, 0.0
+    for (case, prot), (inp, _) in runs.items():
+        out = bt.run_map(inp, a.factor, "2023.02a", work, f"{tag}-{case}-{prot}")
+        cpu += out.get("cpu_s", 0.0)
+        res[(case, prot)] = bt.outcome(inp, out)
+        print(f"[case_map] {case} {prot}: {int(res[(case, prot)]['touched'].sum())} of {a.pairs} collided, "
+              f"cpu {out.get('cpu_s', float('nan')):.0f} s{' (reused)' if out.get('reused') else ''}", flush=True)
+    ok = np.ones(a.pairs, bool)
+    for r in res.values():
+        ok &= r["apart"]
+    ex = res[("exact", "paired")]
+    x = np.asarray(base["g"]) ** 2 * (base["body"]["mass"] / 2) / (2 * base["kT"])   # gamma^2 = mu g^2 / 2kT
+    props = bt.shp.properties(shape, bt.MATERIAL["density"])
+    rows = []
+    print(f"\nThe paper's dimer family, D/d_s = {a.overlap}, E = {bt.MATERIAL['youngs_modulus']:g} Pa, "
+          f"{int(ok.sum())} collision courses, dt factor {a.factor}; first Chapman-Enskog (Mason-Monchick):")
+    print(f"{'case':>14} {'protocol':>13} | {'D_case/D_exact - 1':>18} | {'se':>7} | hard particles | "
+          f"mass err. | I_perp/m err.")
+    infl = {}
+    for case, prot in CASES:
+        inp, ktm = runs[(case, prot)]
+        rel, se, infl[(case, prot)] = ratio(x[ok], ex["q"][ok], res[(case, prot)]["q"][ok], ktm, full=True)
+        hard = math.sqrt(ktm) - 1.0
+        b = inp["body"]
+        k2 = (max(b["moments"]) / b["mass"]) / (max(base["body"]["moments"]) / base["body"]["mass"]) - 1.0
+        m_err = b["mass"] / base["body"]["mass"] - 1.0
+        rows.append({"case": case, "protocol": prot, "relative": rel, "se": se, "hard_particles": hard,
+                     "mass_error": m_err, "iperp_over_m_error": k2})
+        print(f"{case:>14} {prot:>13} | {100 * rel:+17.2f} % | {100 * se:6.2f} % | {100 * hard:+13.2f} % | "
+              f"{100 * m_err:+9.1f} % | {100 * k2:+8.1f} %")
+    sc = next(r for r in rows if r["case"] == "mass_scaled")
+    for r in rows:   # each case's effect beyond the softness of its mass (paired se over the same collisions)
+        if r["protocol"] == "paired" and r["case"] != "mass_scaled" and r["mass_error"] == sc["mass_error"]:
+            dd = infl[(r["case"], "paired")] - infl[("mass_scaled", "paired")]
+            r["minus_mass_scaled"] = r["relative"] - sc["relative"]
+            r["minus_mass_scaled_se"] = float(dd.std(ddof=1) / math.sqrt(len(dd)))
+            print(f"{r['case']:>14} minus mass_scaled (the k² part): {100 * r['minus_mass_scaled']:+.2f} % "
+                  f"± {100 * r['minus_mass_scaled_se']:.2f} % (se)")
+    print(f"\n[total] CPU of the YADE runs {cpu / 60:.1f} min, wall {(time.time() - t0) / 60:.1f} min")
+    if not a.quick:
+        res_json = {"argv": sys.argv[1:], "shape": shape, "material": bt.MATERIAL, "pairs": a.pairs,
+                    "pairs_used": int(ok.sum()), "seed": a.seed, "dt_factor": a.factor, "spin_pairing": "own",
+                    "rows": rows, "cpu_s": cpu, "date": time.strftime("%Y-%m-%d")}
+        os.makedirs(os.path.dirname(a.out), exist_ok=True)
+        with open(a.out, "w") as f:
+            json.dump(res_json, f, indent=1)
+        print(f"wrote {os.path.relpath(a.out, ROOT)}")
+
+
+if __name__ == "__main__":
+    main()

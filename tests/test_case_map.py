@@ -1,0 +1,82 @@
+"""benchmarks/case_map.py: the ratio estimator of the collision-map prediction, on synthetic
+collisions with a known answer (no YADE), and the per-case states it builds."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+import case_map as cm  # noqa: E402
+
+
+def _collisions(rng, n, c):
+    """gamma^2 ~ Gamma(2) (the flux weight), q_exact uniform on [0, 2], q_case = c q_exact + independent
+    noise: the population ratio <x q_e>/<x q_c> is exactly 1/c."""
+    x = rng.gamma(2.0, 1.0, n)
+    q_e = rng.uniform(0.0, 2.0, n)
+    q_c = c * q_e + rng.normal(0.0, 0.2, n)
+    return x, q_e, q_c
+
+
+def test_ratio_is_unbiased_and_its_interval_covers():
+    """500 replicas of 2,000 collisions: bias of D_case/D_exact - 1 under 0.05 %, 95 % coverage of
+    +-1.96 se in 92-98 %, and the se matches the replicas' spread within 10 %."""
+    rng = np.random.default_rng(5)
+    c, ktm = 0.99, 1.05
+    truth = math.sqrt(ktm) / c - 1.0
+    est, cover, ses = [], 0, []
+    for _ in range(500):
+        rel, se = cm.ratio(*_collisions(rng, 2000, c), ktm)
+        est.append(rel)
+        ses.append(se)
+        cover += abs(rel - truth) <= 1.96 * se
+    est = np.array(est)
+    assert abs(est.mean() - truth) < 5e-4
+    assert 0.92 <= cover / 500 <= 0.98, cover / 500
+    assert np.mean(ses) == pytest.approx(est.std(ddof=1), rel=0.10)
+
+
+def test_difference_of_two_ratios_has_the_paired_se():
+    """Two cases on the same collisions: the se of their difference from the influence values
+    matches the spread of the difference over replicas, and is far below the unpaired sum."""
+    rng = np.random.default_rng(6)
+    diffs, ses, unpaired = [], [], []
+    for _ in range(300):
+        x, q_e, q_1 = _collisions(rng, 2000, 0.99)
+        q_2 = 0.995 * q_1 + rng.normal(0.0, 0.02, 2000)
+        r1, s1, d1 = cm.ratio(x, q_e, q_1, 1.0, full=True)
+        r2, s2, d2 = cm.ratio(x, q_e, q_2, 1.0, full=True)
+        diffs.append(r2 - r1)
+        ses.append((d2 - d1).std(ddof=1) / math.sqrt(2000))
+        unpaired.append(math.hypot(s1, s2))
+    assert np.mean(ses) == pytest.approx(np.std(diffs, ddof=1), rel=0.12)
+    assert np.mean(ses) < 0.5 * np.mean(unpaired)
+
+
+def test_case_states_follow_the_gas_study():
+    """Paired: exact's velocities, spins at the case's own equipartition (kT_c = kT_e m_c/m_e);
+    equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled: mass and moments scaled alike."""
+    shape = {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": 0.5}
+    base = cm.bt.make_pairs(shape, 50, 3)
+    m_e, i_e = base["body"]["mass"], max(base["body"]["moments"])
+    v, w = np.asarray(base["vel"]), np.asarray(base["angvel"])
+    for case, prot in cm.CASES:
+        inp, ktm = cm.case_input(base, shape, case, prot)
+        m_c, i_c = inp["body"]["mass"], max(inp["body"]["moments"])
+        vc, wc = np.asarray(inp["vel"]), np.asarray(inp["angvel"])
+        kt_c = inp["kT"]
+        e_t = 0.5 * m_c * np.sum(vc ** 2)
+        if prot == "paired":
+            np.testing.assert_array_equal(vc, v)
+            assert kt_c == pytest.approx(base["kT"] * m_c / m_e, rel=1e-14)
+            assert ktm == pytest.approx(1.0, rel=1e-14)
+        else:
+            assert e_t == pytest.approx(0.5 * m_e * np.sum(v ** 2), rel=1e-12)
+            assert ktm == pytest.approx(m_e / m_c, rel=1e-14)
+        # the spins' energy per rotational degree of freedom over kT is the exact case's
+        assert 0.5 * i_c * np.sum(wc ** 2) / kt_c == pytest.approx(0.5 * i_e * np.sum(w ** 2) / base["kT"], rel=1e-12)
+        if case == "mass_scaled":
+            assert i_c / m_c == pytest.approx(i_e / m_e, rel=1e-14) and m_c > 1.1 * m_e
