@@ -28,8 +28,11 @@ softness and the coupling of translation to rotation, which this measures.
 
 What it is not: the full Boltzmann D (for the sphere gas the first approximation is 1.7 % below it,
 a factor that largely cancels in a ratio of two similar cases), and not a gas measurement; the
-gas study is the check.  Linear clumps only (``--shape`` takes dimer shapes): their spins are
-isotropic about the axis, so a case's spins are exact's rescaled.
+gas study is the check.  Dimers run on YADE 2023.02a (isotropic route); the triangle trimer and
+the tetrahedron on YADE 2025.2 (delValle2023, scripts/debian13.sh), without ``mass_scaled`` (YADE's
+builders give an aspherical clump the summed or the exact inertia only).  A case's spins are
+exact's normal draws rescaled axis by axis, so the members' frame must be principal for both
+inertia tensors (checked; true for these symmetric shapes).
 """
 import argparse
 import json
@@ -57,26 +60,35 @@ def case_input(base, shape, case, protocol):
     """The exact collision courses ``base`` (bench_timestep.make_pairs) with the body and the state of
     ``case`` in ``protocol`` (see the module docstring).  Returns (input, kT/m ratio to exact)."""
     props = bt.shp.properties(shape, bt.MATERIAL["density"])
-    if not props["linear"]:
-        raise SystemExit("case_map: linear clumps only (their spins are isotropic about the axis)")
     ex = bt.gm.resolve_case(props, "exact")
     if case == "mass_scaled":
+        if not props["linear"]:
+            raise ValueError("mass_scaled needs the isotropic route (a linear clump): YADE's builders give an "
+                             "aspherical clump the summed or the exact inertia only")
         lam = props["sum"]["mass"] / props["exact"]["mass"]
         cr = dict(ex, mass=ex["mass"] * lam, moments=[lam * m for m in ex["moments"]])
+        i_body_c = np.asarray(props["exact"]["inertia"]) * lam
     else:
         cr = bt.gm.resolve_case(props, case)
+        i_body_c = np.asarray(props[bt.gm.CASE_SOURCES[case][1]]["inertia"])   # "exact" or "sum"
+    i_body_e = np.asarray(props["exact"]["inertia"])
+    for t in (i_body_e, i_body_c):   # make_pairs draws spins in the members' frame: it must be principal
+        if np.max(np.abs(t - np.diag(np.diag(t)))) > 1e-12 * np.max(np.abs(t)):
+            raise ValueError("case_map: the members' frame is not principal for this shape")
     m_e, m_c = ex["mass"], cr["mass"]
-    i_e, i_c = float(np.max(ex["moments"])), float(np.max(cr["moments"]))   # I_perp
     if protocol == "paired":
         v_scale, kt_ratio = 1.0, m_c / m_e                 # kT_c / kT_e
     else:
         v_scale, kt_ratio = math.sqrt(m_e / m_c), 1.0
-    w_scale = math.sqrt(kt_ratio * i_e / i_c)             # spins at equipartition at kT_c with I_c
+    # spins at equipartition at kT_c with the case's moments, from exact's normal draws, axis by axis
+    w_scale = np.sqrt(kt_ratio * np.diag(i_body_e) / np.diag(i_body_c))
+    ori = np.asarray(base["ori"]).reshape(-1, 3, 3)
+    wb = np.einsum("nji,nj->ni", ori, np.asarray(base["angvel"])) * w_scale
     inp = dict(base)
     inp["body"] = {"builder": cr["builder"], "route": cr["route"], "mass": m_c, "moments": cr["moments"],
                    "members": props["members"], "radii": props["radii"]}
     inp["vel"] = (np.asarray(base["vel"]) * v_scale).tolist()
-    inp["angvel"] = (np.asarray(base["angvel"]) * w_scale).tolist()
+    inp["angvel"] = np.einsum("nij,nj->ni", ori, wb).tolist()
     inp["kT"] = base["kT"] * kt_ratio
     return inp, kt_ratio * m_e / m_c
 
@@ -98,7 +110,9 @@ def main():
     ap.add_argument("--pairs", type=int, default=10000)
     ap.add_argument("--seed", type=int, default=17)
     ap.add_argument("--factor", type=float, default=0.5, help="dt factor (the studies: 0.5 or 1.0)")
-    ap.add_argument("--overlap", type=float, default=0.5, help="dimer overlap D/d_s")
+    ap.add_argument("--overlap", type=float, default=0.5, help="overlap D/d_s")
+    ap.add_argument("--shape", default="dimer", choices=["dimer", "trimer_triangle", "tetrahedron"],
+                    help="aspherical shapes run on YADE 2025.2 (scripts/debian13.sh), without mass_scaled")
     ap.add_argument("--youngs-modulus", type=float, default=None, help="Pa (default: the paper's 1e7)")
     ap.add_argument("--workdir", default=None, help="keep the YADE runs here (reused by a repeated call)")
     ap.add_argument("--out", default=OUT)
@@ -106,7 +120,10 @@ def main():
     a = ap.parse_args()
     if a.youngs_modulus:
         bt.MATERIAL["youngs_modulus"] = a.youngs_modulus
-    shape = {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": a.overlap}
+    shape = {"kind": a.shape, "sphere_diameter": 0.1333, "overlap": a.overlap}
+    linear = bt.shp.properties(shape, bt.MATERIAL["density"])["linear"]
+    yade = "2023.02a" if linear else "2025.2"
+    cases = [c for c in CASES if linear or c[0] != "mass_scaled"]
     work = a.workdir or tempfile.mkdtemp(prefix="case_map-")
     os.makedirs(work, exist_ok=True)
     t0 = time.time()
@@ -116,13 +133,13 @@ def main():
     mid = 0.5 * (p[0::2] + p[1::2])
     p += np.repeat(0.5 * mid, 2, axis=0)
     base["pos"], base["spacing"], base["lattice"] = p.tolist(), 1.5 * base["spacing"], (1.5 * mid).tolist()
-    tag = f"d{a.overlap}-E{bt.MATERIAL['youngs_modulus']:g}-n{a.pairs}-s{a.seed}"
+    tag = f"{a.shape}-d{a.overlap}-E{bt.MATERIAL['youngs_modulus']:g}-n{a.pairs}-s{a.seed}"
     runs = {("exact", "paired"): (base, 1.0)}
-    for case, prot in CASES:
+    for case, prot in cases:
         runs[(case, prot)] = case_input(base, shape, case, prot)
     res, cpu = {}, 0.0
     for (case, prot), (inp, _) in runs.items():
-        out = bt.run_map(inp, a.factor, "2023.02a", work, f"{tag}-{case}-{prot}")
+        out = bt.run_map(inp, a.factor, yade, work, f"{tag}-{case}-{prot}")
         cpu += out.get("cpu_s", 0.0)
         res[(case, prot)] = bt.outcome(inp, out)
         print(f"[case_map] {case} {prot}: {int(res[(case, prot)]['touched'].sum())} of {a.pairs} collided, "
@@ -134,24 +151,24 @@ def main():
     x = np.asarray(base["g"]) ** 2 * (base["body"]["mass"] / 2) / (2 * base["kT"])   # gamma^2 = mu g^2 / 2kT
     props = bt.shp.properties(shape, bt.MATERIAL["density"])
     rows = []
-    print(f"\nThe paper's dimer family, D/d_s = {a.overlap}, E = {bt.MATERIAL['youngs_modulus']:g} Pa, "
+    print(f"\n{a.shape}, D/d_s = {a.overlap}, YADE {yade}, E = {bt.MATERIAL['youngs_modulus']:g} Pa, "
           f"{int(ok.sum())} collision courses, dt factor {a.factor}; first Chapman-Enskog (Mason-Monchick):")
     print(f"{'case':>14} {'protocol':>13} | {'D_case/D_exact - 1':>18} | {'se':>7} | hard particles | "
           f"mass err. | I_perp/m err.")
     infl = {}
-    for case, prot in CASES:
+    for case, prot in cases:
         inp, ktm = runs[(case, prot)]
         rel, se, infl[(case, prot)] = ratio(x[ok], ex["q"][ok], res[(case, prot)]["q"][ok], ktm, full=True)
         hard = math.sqrt(ktm) - 1.0
         b = inp["body"]
-        k2 = (max(b["moments"]) / b["mass"]) / (max(base["body"]["moments"]) / base["body"]["mass"]) - 1.0
+        k2 = (max(b["moments"]) / b["mass"]) / (max(base["body"]["moments"]) / base["body"]["mass"]) - 1.0  # largest moment
         m_err = b["mass"] / base["body"]["mass"] - 1.0
         rows.append({"case": case, "protocol": prot, "relative": rel, "se": se, "hard_particles": hard,
                      "mass_error": m_err, "iperp_over_m_error": k2})
         print(f"{case:>14} {prot:>13} | {100 * rel:+17.2f} % | {100 * se:6.2f} % | {100 * hard:+13.2f} % | "
               f"{100 * m_err:+9.1f} % | {100 * k2:+8.1f} %")
-    sc = next(r for r in rows if r["case"] == "mass_scaled")
-    for r in rows:   # each case's effect beyond the softness of its mass (paired se over the same collisions)
+    sc = next((r for r in rows if r["case"] == "mass_scaled"), None)
+    for r in rows if sc else []:   # each case's effect beyond the softness of its mass (paired se over the same collisions)
         if r["protocol"] == "paired" and r["case"] != "mass_scaled" and r["mass_error"] == sc["mass_error"]:
             dd = infl[(r["case"], "paired")] - infl[("mass_scaled", "paired")]
             r["minus_mass_scaled"] = r["relative"] - sc["relative"]

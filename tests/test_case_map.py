@@ -56,27 +56,41 @@ def test_difference_of_two_ratios_has_the_paired_se():
     assert np.mean(ses) < 0.5 * np.mean(unpaired)
 
 
-def test_case_states_follow_the_gas_study():
-    """Paired: exact's velocities, spins at the case's own equipartition (kT_c = kT_e m_c/m_e);
-    equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled: mass and moments scaled alike."""
-    shape = {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": 0.5}
+@pytest.mark.parametrize("kind", ["dimer", "trimer_triangle", "tetrahedron"])
+def test_case_states_follow_the_gas_study(kind):
+    """Paired: exact's velocities, spins at the case's own equipartition (kT_c = kT_e m_c/m_e) axis
+    by axis; equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled (linear clumps only):
+    mass and moments scaled alike."""
+    shape = {"kind": kind, "sphere_diameter": 0.1333, "overlap": 0.5}
+    props = cm.bt.shp.properties(shape, 1140.0)
     base = cm.bt.make_pairs(shape, 50, 3)
-    m_e, i_e = base["body"]["mass"], max(base["body"]["moments"])
-    v, w = np.asarray(base["vel"]), np.asarray(base["angvel"])
+    m_e = base["body"]["mass"]
+    I_e = np.diag(props["exact"]["inertia"])
+    v = np.asarray(base["vel"])
+    ori = np.asarray(base["ori"]).reshape(-1, 3, 3)
+
+    def body_energy_per_axis(inp, I):
+        wb = np.einsum("nji,nj->ni", ori, np.asarray(inp["angvel"]))
+        return 0.5 * I * np.sum(wb ** 2, axis=0)
+
+    e_axis_e = body_energy_per_axis(base, I_e) / base["kT"]
     for case, prot in cm.CASES:
+        if case == "mass_scaled" and not props["linear"]:
+            with pytest.raises(ValueError, match="linear clump"):
+                cm.case_input(base, shape, case, prot)
+            continue
         inp, ktm = cm.case_input(base, shape, case, prot)
-        m_c, i_c = inp["body"]["mass"], max(inp["body"]["moments"])
-        vc, wc = np.asarray(inp["vel"]), np.asarray(inp["angvel"])
-        kt_c = inp["kT"]
-        e_t = 0.5 * m_c * np.sum(vc ** 2)
+        m_c = inp["body"]["mass"]
+        I_c = I_e * m_c / m_e if case == "mass_scaled" else np.diag(props[cm.bt.gm.CASE_SOURCES[case][1]]["inertia"])
+        vc = np.asarray(inp["vel"])
         if prot == "paired":
             np.testing.assert_array_equal(vc, v)
-            assert kt_c == pytest.approx(base["kT"] * m_c / m_e, rel=1e-14)
+            assert inp["kT"] == pytest.approx(base["kT"] * m_c / m_e, rel=1e-14)
             assert ktm == pytest.approx(1.0, rel=1e-14)
         else:
-            assert e_t == pytest.approx(0.5 * m_e * np.sum(v ** 2), rel=1e-12)
+            assert 0.5 * m_c * np.sum(vc ** 2) == pytest.approx(0.5 * m_e * np.sum(v ** 2), rel=1e-12)
             assert ktm == pytest.approx(m_e / m_c, rel=1e-14)
-        # the spins' energy per rotational degree of freedom over kT is the exact case's
-        assert 0.5 * i_c * np.sum(wc ** 2) / kt_c == pytest.approx(0.5 * i_e * np.sum(w ** 2) / base["kT"], rel=1e-12)
+        # each body axis carries the same energy over kT as in the exact case
+        np.testing.assert_allclose(body_energy_per_axis(inp, I_c) / inp["kT"], e_axis_e, rtol=1e-12, atol=1e-12)
         if case == "mass_scaled":
-            assert i_c / m_c == pytest.approx(i_e / m_e, rel=1e-14) and m_c > 1.1 * m_e
+            assert max(inp["body"]["moments"]) / m_c == pytest.approx(max(base["body"]["moments"]) / m_e, rel=1e-14)
