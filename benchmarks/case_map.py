@@ -48,7 +48,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_timestep as bt  # noqa: E402
 
 ROOT = bt.ROOT
-OUT = os.path.join(ROOT, "benchmarks", "results", "case_map.json")
+OUT = os.path.join(ROOT, "results", "collision_map", "case_map.json")  # the report reads results/collision_map/
 CASES = [("uncorrected", "paired"), ("mass_only", "paired"), ("inertia_only", "paired"),
          ("mass_scaled", "paired"), ("uncorrected", "equal_energy")]
 # mass_scaled: not a gas-study case; the summed mass with the inertia scaled by the same factor
