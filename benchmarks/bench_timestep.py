@@ -45,6 +45,7 @@ import json
 import math
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -179,16 +180,24 @@ def run_map(inp, factor, yade, tmp, name):
     with open(fin, "w") as f:
         f.write(text)
     env = dict(os.environ, OMP_NUM_THREADS="1")
+    stage = None
     if native_yade_version().startswith(yade):        # Debian 12 for 2023.02a, Debian 13 for 2025.2
         cmd = ["nice", "-n", "5", sys.executable, SCRIPT, fin, fout]
     elif yade.startswith("2025") and not os.environ.get("CLUMPPROPS_IN_DEBIAN13"):
+        # the Debian 13 root sees only the repository (as /repo) and /tmp: stage the files in /tmp
+        stage = tempfile.mkdtemp(prefix="cmap-", dir="/tmp")
+        shutil.copy(fin, os.path.join(stage, "in.json"))
         cmd = ["nice", "-n", "5", DEBIAN13, "run", "python3", "/repo/benchmarks/timestep_collisions_yade.py",
-               fin, fout]
+               os.path.join(stage, "in.json"), os.path.join(stage, "out.json")]
     else:
         raise RuntimeError(f"no YADE {yade} here (the native one is {native_yade_version()})")
     t0 = time.time()
     c0 = cpu_children()
     p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if stage is not None:
+        if os.path.exists(os.path.join(stage, "out.json")):
+            shutil.move(os.path.join(stage, "out.json"), fout)
+        shutil.rmtree(stage, ignore_errors=True)
     if p.returncode != 0 or not os.path.exists(fout):
         raise RuntimeError(f"collision map {name} f={factor} failed ({p.returncode}):\n{p.stdout[-2000:]}\n"
                            f"{p.stderr[-2000:]}")
