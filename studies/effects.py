@@ -15,6 +15,7 @@ squared radius of gyration tr(I) / 2m (:mod:`studies.shapes`).
 from __future__ import annotations
 
 import csv
+import math
 import os
 
 import numpy as np
@@ -99,7 +100,9 @@ def write(specs, path):
         w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
         w.writeheader()
         for r in rows:
-            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else v) for k, v in r.items()})
+            # one pair has no interval: its bounds are empty cells, never "nan"
+            w.writerow({k: ((f"{v:.10g}" if math.isfinite(v) else "") if isinstance(v, float) else v)
+                        for k, v in r.items()})
     os.replace(tmp, path)
     return rows
 

@@ -61,7 +61,7 @@ def plot_all(results, log=print):
     made = []
     eff = _read(os.path.join(results, "effects.csv"))
     if eff is not None:   # the sphere gas is not a clump's mass-property error (its -40 % would hide the rest)
-        eff = eff[eff["case"] != "spheres"]
+        eff = eff[(eff["case"] != "spheres") & (eff["n_pairs"] >= 2)]   # one pair: no interval, no point
     if eff is not None and len(eff):
         fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
         for (shape, prot, case), g in eff.groupby(["shape", "protocol", "case"]):

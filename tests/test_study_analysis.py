@@ -106,6 +106,22 @@ def test_effects_table_pairs_by_seed(tmp_path, monkeypatch):
     assert rows[0]["mass_error"] == pytest.approx(5 / 27, rel=1e-12)     # 32/27 - 1: the paper's dimer
 
 
+def test_effects_table_one_pair_has_empty_bounds(tmp_path):
+    """One seed pair has no interval: its bounds are empty cells (read back as missing), not 'nan'."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [1]}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(8)
+    for run in S.runs(sp):
+        fr, v0 = frames_of(rng, 108, 300.0, 0.5, 1.0)
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    effects.write([sp], str(tmp_path / "effects.csv"))
+    text = (tmp_path / "effects.csv").read_text()
+    assert "nan" not in text.lower()
+    t = pd.read_csv(tmp_path / "effects.csv")
+    assert t.n_pairs.tolist() == [1] and np.isfinite(t.relative[0])
+    assert t.relative_ci_low.isna().all() and t.relative_ci_high.isna().all()
+
+
 def test_auto_cut_detected_from_the_rotational_share(tmp_path):
     """The paper's zero-spin start: the rotational share relaxes as 0.4 - 0.36 exp(-t/28.4 s);
     the detected cut must lie where the share is within its fluctuation of 0.4, and the analysis
