@@ -4,8 +4,9 @@ effects.png        D_case/D_exact - 1 (paired by seed, 95 % bars) against the su
                    and against its k^2 = I/m error: one point per shape x overlap x protocol x case;
                    with equal-energy rows, the hard-particle mass scaling (1 + mass error)^(-1/2) - 1;
                    the collision-map predictions of results/collision_map/ as crosses (left panel)
-decomposition.png  the paper's dimer, paired protocol: uncorrected, mass_only, inertia_only side by side
-                   at each Young's modulus (the mass/inertia decomposition and the stiffness series)
+decomposition.png  the paper's dimer, paired protocol, against Young's modulus: uncorrected, mass_only,
+                   inertia_only and mass_scaled (summed mass, exact k^2: softness only), the
+                   collision-map predictions (results/collision_map/) and the gas runs' 95 % intervals
 protocol.png       uncorrected vs exact per shape: paired against equal-energy protocol, with the
                    hard-particle mass-scaling prediction sqrt(m_exact/m_summed) - 1 for equal energy
 sphere_gas.png     the sphere gas's D over the Hertz-sphere and hard-sphere Boltzmann D against E
@@ -91,22 +92,10 @@ def plot_all(results, log=print):
         made.append(_save(fig, results, "effects.png"))
 
         dim = eff[(eff["shape"] == "dimer") & (eff["protocol"] == "paired") & (eff["overlap"].astype(str) == "0.5")
-                  & eff["case"].isin(["uncorrected", "mass_only", "inertia_only"])]
-        if len(dim):
-            fig, ax = plt.subplots(figsize=(7, 4.5))
-            moduli = sorted(dim["youngs_modulus"].unique())
-            cases = ["uncorrected", "mass_only", "inertia_only"]
-            for j, case in enumerate(cases):
-                g = dim[dim["case"] == case].set_index("youngs_modulus").reindex(moduli).reset_index()
-                x = np.arange(len(moduli)) + (j - 1) * 0.22
-                has = g["relative"].notna().to_numpy()
-                if has.any():
-                    _bars(ax, x[has], g[has], color=CASE_COLORS[case], label=case)
-            ax.set_xticks(np.arange(len(moduli)))
-            ax.set_xticklabels([f"E = {e:.0e} Pa" for e in moduli])
-            made.append(_finish(fig, ax, 0, "D_case / D_exact − 1 (%), 95 % CI",
-                                "Paper's dimer, paired protocol: mass vs inertia, by stiffness", results,
-                                "decomposition.png"))
+                  & eff["case"].isin(DECOMP_CASES)]
+        pred = _dimer_map_series(maps)
+        if pred or (len(dim) and dim["case"].nunique() > 1):
+            made.append(_decomposition(plt, dim, pred, results))
 
         unc = eff[eff["case"] == "uncorrected"]
         if len(unc) and unc["protocol"].nunique() > 1:
@@ -144,6 +133,47 @@ def plot_all(results, log=print):
     for m in made:
         log(f"[plot] {m}")
     return made
+
+
+DECOMP_CASES = ["uncorrected", "mass_only", "inertia_only", "mass_scaled"]
+
+
+def _dimer_map_series(maps):
+    """{case: [(E, relative, se), ...]} of the paper's dimer (D/d_s = 0.5), paired, from the collision maps."""
+    out = {}
+    for m in maps:
+        sh = m.get("shape", {})
+        if sh.get("kind") != "dimer" or abs(float(sh.get("overlap", 0)) - 0.5) > 1e-12:
+            continue
+        E = float(m["material"]["youngs_modulus"])
+        for r in m["rows"]:
+            if r["protocol"] == "paired" and r["case"] in DECOMP_CASES:
+                out.setdefault(r["case"], []).append((E, r["relative"], r["se"]))
+    return {c: sorted(v) for c, v in out.items()}
+
+
+def _decomposition(plt, dim, pred, results):
+    """decomposition.png: per case, D_case/D_exact - 1 against E: collision-map predictions (crosses and
+    lines, ±1.96 se) and the gas runs' 95 % intervals (filled markers)."""
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    colors = dict(CASE_COLORS, mass_scaled="tab:blue")
+    for j, case in enumerate(DECOMP_CASES):
+        col = colors.get(case, "gray")
+        if case in pred:
+            E, y, se = (np.array(v, dtype=float) for v in zip(*pred[case]))
+            ax.errorbar(E, 100 * y, yerr=196 * se, fmt="x-", color=col, capsize=2, lw=1,
+                        label=f"{case}: collision-map prediction")
+        g = dim[dim["case"] == case]
+        if len(g):
+            _bars(ax, g["youngs_modulus"].to_numpy(dtype=float) * (1.08 + 0.04 * j), g, color=col,
+                  label=f"{case}: gas runs, 95 % CI")
+    ax.set_xscale("log")
+    ax.set_xlabel("Young's modulus E (Pa)\n"
+                  "mass_only: exact m, summed I  ·  inertia_only: summed m, exact I  ·  "
+                  "mass_scaled: summed m, exact k²", fontsize=8)
+    return _finish(fig, ax, 0, "D_case / D_exact − 1 (%)",
+                   "Paper's dimer, paired protocol: mass vs inertia vs contact stiffness", results,
+                   "decomposition.png")
 
 
 def _finish(fig, ax, ref, ylabel, title, results, name):

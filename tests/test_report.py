@@ -1,6 +1,7 @@
 """The generated report (studies/report.py) and the sphere-gas table (studies/sphere_gas.py) from
 the committed results: every number in the answers comes from the tables, and the committed
 sphere gas agrees with kinetic theory."""
+import json
 import math
 import shutil
 
@@ -75,6 +76,15 @@ def test_effect_figures_from_tables_only(tmp_path):
     for m in made:
         (tmp_path / m).unlink()
     assert effects_plots.plot_all(str(tmp_path), log=lambda s: None) == []
+    # the dimer's uncorrected row alone decomposes nothing; a collision map of the dimer does
+    (tmp_path / "effects.csv").write_text(cols + rows[0] + "\n")
+    assert effects_plots.plot_all(str(tmp_path), log=lambda s: None) == ["effects.png"]
+    (tmp_path / "collision_map").mkdir()
+    cmap = {"shape": {"kind": "dimer", "overlap": 0.5}, "material": {"youngs_modulus": 1e7},
+            "rows": [{"case": c, "protocol": "paired", "relative": r, "se": 0.001, "mass_error": 0.0}
+                     for c, r in (("uncorrected", 0.013), ("mass_only", -0.002), ("mass_scaled", 0.006))]}
+    (tmp_path / "collision_map" / "case_map.json").write_text(json.dumps(cmap))
+    assert effects_plots.plot_all(str(tmp_path), log=lambda s: None) == ["effects.png", "decomposition.png"]
 
 
 def test_equal_energy_answer_states_the_mass_scaling_prediction():
