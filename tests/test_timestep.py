@@ -4,7 +4,10 @@ exchange with a second-order energy error, and free rotation of the triangle tri
 YADE 2025.2 keeps its energy and angular momentum to second order once the initial angular
 velocity is carried back half a step (a few seconds of YADE each)."""
 import math
+import os
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -87,14 +90,19 @@ def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
     inp["t_max"] = 0.3
     inp["check_interval"] = 0.3
     errs = {}
-    for f in (0.5, 1.0):
-        out = bt.run_map(inp, f, "2025.2", str(tmp_path), "free")
+    # the second factor's files live outside /tmp and the repository, which the Debian 13 root
+    # does not see: run_map stages them
+    outside = tempfile.mkdtemp(prefix="clumpprops-test-", dir="/var/tmp")
+    for f, work in ((0.5, str(tmp_path)), (1.0, outside)):
+        out = bt.run_map(inp, f, "2025.2", work, "free")
+        assert os.path.exists(os.path.join(work, f"free-f{f}.out.json"))
         assert out["rot_algorithm"] == "delValle2023" and out["touched"] == [False]
         o = bt.outcome(inp, out)
         L0 = np.abs(np.asarray(inp["angvel"])).max() * 0.01
         errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
         assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
     assert errs[1.0] < 1e-4 and errs[0.5] < errs[1.0] / 3         # second order
+    shutil.rmtree(outside)
 
 
 def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_gas_check():
