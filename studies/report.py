@@ -311,7 +311,7 @@ def collision_map_answers(maps):
     """Bullets: for each dimer map, what the collision integral predicts for the paired protocol, split
     into the softness of the heavier mass (``mass_scaled``) and the rest (k^2)."""
     out = []
-    paper = [m for m in maps if m["shape"].get("overlap") == 0.5]
+    paper = [m for m in maps if m["shape"].get("kind") == "dimer" and m["shape"].get("overlap") == 0.5]
     for m in paper:
         rows = {(r["case"], r["protocol"]): r for r in m["rows"]}
         u, sc = rows.get(("uncorrected", "paired")), rows.get(("mass_scaled", "paired"))
@@ -336,6 +336,23 @@ def collision_map_answers(maps):
                    "exact): " + ", ".join(f"{pct(r['relative'])} ± {100 * 1.96 * r['se']:.2f} % at E = {e:.0e} Pa"
                                           for e, r in soft)
                    + ": the mass effect at fixed velocities is the contact's softness and falls as E stiffens.")
+    for m in maps:     # the other shapes and overlaps: the paired effect (the k^2 question) and equal energy
+        if m in paper:
+            continue
+        rows = {(r["case"], r["protocol"]): r for r in m["rows"]}
+        u, ee = rows.get(("uncorrected", "paired")), rows.get(("uncorrected", "equal_energy"))
+        if not (u and ee):
+            continue
+        sh = m["shape"]
+        soft = rows.get(("mass_scaled", "paired"))
+        soft_txt = (f", of which the heavier mass's softness {pct(soft['relative'])} ± {100 * 1.96 * soft['se']:.2f} %"
+                    if soft else "")
+        out.append(
+            f"* **Collision-map prediction, {sh['kind']} (D/d_s = {sh.get('overlap')}), "
+            f"E = {m['material']['youngs_modulus']:.0e} Pa** ({m['pairs_used']} collisions per case; `{m['file']}`; "
+            f"summed mass {pct(u['mass_error'], 1)}, largest moment over mass {pct(u['iperp_over_m_error'], 1)}): uncorrected vs "
+            f"exact, paired, {pct(u['relative'])} ± {100 * 1.96 * u['se']:.2f} %{soft_txt}; equal energy "
+            f"{pct(ee['relative'])} ± {100 * 1.96 * ee['se']:.2f} % (hard particles {pct(ee['hard_particles'])}).")
     return out
 
 
