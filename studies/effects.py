@@ -60,14 +60,12 @@ def collect(specs):
     return by, facts
 
 
-def effect_rows(specs):
-    from .estimators import t_interval
-
+def paired_values(specs):
+    """[(group facts, case, protocol, per-seed D_case/D_exact - 1, yade versions, rot algorithms)] for
+    every pair key: the seeds where both the case and exact ran, in seed order."""
     by, facts = collect(specs)
-    rows = []
+    out = []
     for pk, seeds in by.items():
-        p = facts[pk]
-        shape = p["shape"]["definition"]
         combos = sorted({c for s in seeds.values() for c in s if c[0] != "exact"})
         for case, protocol in combos:
             vals, yv, ra = [], set(), set()
@@ -79,16 +77,28 @@ def effect_rows(specs):
                 vals.append(cc[0] / ex[0] - 1.0)
                 yv |= {ex[1]["yade_version"], cc[1]["yade_version"]}
                 ra |= {ex[1]["rot_algorithm"], cc[1]["rot_algorithm"]}
-            if not vals:
-                continue
-            m, lo, hi, se, n = t_interval(vals)
-            rho = p["material"]["density"]
-            name = shape["kind"] if shape["kind"] != "file" else os.path.basename(shape["path"])
-            rows.append({"shape": name, "overlap": shape.get("overlap", ""), "protocol": protocol,
-                         "youngs_modulus": p["material"]["youngs_modulus"], "case": case, "n_pairs": n,
-                         "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
-                         "mass_error": shp.mass_error(shape, rho), "k2_error": shp.k2_error(shape, rho),
-                         "yade_version": ";".join(sorted(yv)), "rot_algorithm": ";".join(sorted(ra))})
+            if vals:
+                out.append((facts[pk], case, protocol, vals, yv, ra))
+    return out
+
+
+def shape_name(shape):
+    return shape["kind"] if shape["kind"] != "file" else os.path.basename(shape["path"])
+
+
+def effect_rows(specs):
+    from .estimators import t_interval
+
+    rows = []
+    for p, case, protocol, vals, yv, ra in paired_values(specs):
+        shape = p["shape"]["definition"]
+        m, lo, hi, se, n = t_interval(vals)
+        rho = p["material"]["density"]
+        rows.append({"shape": shape_name(shape), "overlap": shape.get("overlap", ""), "protocol": protocol,
+                     "youngs_modulus": p["material"]["youngs_modulus"], "case": case, "n_pairs": n,
+                     "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
+                     "mass_error": shp.mass_error(shape, rho), "k2_error": shp.k2_error(shape, rho),
+                     "yade_version": ";".join(sorted(yv)), "rot_algorithm": ";".join(sorted(ra))})
     rows.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["protocol"], r["youngs_modulus"], r["case"]))
     return rows
 

@@ -242,3 +242,29 @@ def test_same_spin_report_divides_out_the_thermal_speed_drift(tmp_path):
     assert "+0.00 % [+0.00, +0.00] %" in line and "-4.65 %" in line and "+4.88 %" in line
     sp["gas"]["spin_pairing"] = "own"
     assert report._same_spin_answers([sp]) == []
+
+
+def test_paper_share_from_independent_runs_covers_the_known_ratio(tmp_path):
+    """Uncorrected walkers 4 % faster than exact (seeds 1-10) and sphere walkers 40 % slower (seeds
+    11-18, their own exact runs): the report's share (D_unc - D_ex)/(D_sph - D_ex) is about -0.10,
+    with a Fieller interval that holds it and excludes 0."""
+    from studies import report
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 11))},
+                             {"shape": "dimer", "cases": ["exact", "spheres"], "seeds": list(range(11, 19))}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(21)
+    scale = {"exact": 1.0, "uncorrected": 1.04, "spheres": 0.6}
+    for run in S.runs(sp):
+        fr, v0 = frames_of(rng, 216, 400.0, 0.5, scale[run["case"]])
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    (line,) = report.paper_share_answers([sp])
+    assert "10 seed pairs for the numerator, 8 for the sphere-clump gap" in line
+    th, lo, hi = (float(x) for x in
+                  line.split("Fieller 95 % interval): ")[1].split(", which")[0].replace("[", "").replace("]", "")
+                  .replace(",", "").split())
+    assert lo <= -0.04 / 0.4 <= hi and hi < 0 and lo < th < hi
+    assert "excludes 0.10 and excludes 0" in line
+    for run in S.runs(sp):           # without the sphere runs there is no gap and no statement
+        if run["case"] == "spheres":
+            os.remove(runner.record_path(rdir, run))
+    assert report.paper_share_answers([sp]) == []
