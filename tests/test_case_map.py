@@ -59,8 +59,8 @@ def test_difference_of_two_ratios_has_the_paired_se():
 @pytest.mark.parametrize("kind", ["dimer", "trimer_triangle", "tetrahedron"])
 def test_case_states_follow_the_gas_study(kind):
     """Paired: exact's velocities, spins at the case's own equipartition (kT_c = kT_e m_c/m_e) axis
-    by axis; equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled (linear clumps only):
-    mass and moments scaled alike."""
+    by axis; equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled: mass and moments scaled
+    alike (aspherical: the exact build's moments times moment_scale)."""
     shape = {"kind": kind, "sphere_diameter": 0.1333, "overlap": 0.5}
     props = cm.bt.shp.properties(shape, 1140.0)
     base = cm.bt.make_pairs(shape, 50, 3)
@@ -75,10 +75,6 @@ def test_case_states_follow_the_gas_study(kind):
 
     e_axis_e = body_energy_per_axis(base, I_e) / base["kT"]
     for case, prot in cm.CASES:
-        if case == "mass_scaled" and not props["linear"]:
-            with pytest.raises(ValueError, match="linear clump"):
-                cm.case_input(base, shape, case, prot)
-            continue
         inp, ktm = cm.case_input(base, shape, case, prot)
         m_c = inp["body"]["mass"]
         I_c = I_e * m_c / m_e if case == "mass_scaled" else np.diag(props[cm.bt.gm.CASE_SOURCES[case][1]]["inertia"])
@@ -94,3 +90,7 @@ def test_case_states_follow_the_gas_study(kind):
         np.testing.assert_allclose(body_energy_per_axis(inp, I_c) / inp["kT"], e_axis_e, rtol=1e-12, atol=1e-12)
         if case == "mass_scaled":
             assert max(inp["body"]["moments"]) / m_c == pytest.approx(max(base["body"]["moments"]) / m_e, rel=1e-14)
+            assert inp["body"]["builder"] == base["body"]["builder"]
+            assert inp["body"]["moment_scale"] == pytest.approx(m_c / m_e, rel=1e-14)
+        else:
+            assert "moment_scale" not in inp["body"]
