@@ -20,6 +20,7 @@ import fcntl
 import io
 import json
 import os
+import shutil
 import time
 
 from . import runner
@@ -144,6 +145,9 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         raise SystemExit(f"[study] another driver is running on {rdir}")
+    # progress files left by a driver that was killed: no run of this study is in flight while we
+    # hold the lock, so they would only show as phantom running runs
+    shutil.rmtree(os.path.join(rdir, ".progress"), ignore_errors=True)
     commit, dirty = runner.git_state()
     if dirty and not allow_dirty:
         raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "

@@ -7,6 +7,7 @@ with ``kill -9`` and resumed, a crashed run recorded and retried, and the asymme
 needs YADE 2025.2.
 """
 import json
+import re
 import os
 import shutil
 import signal
@@ -261,8 +262,18 @@ def test_driver_killed_with_sigkill_resumes(tmp_path):
     time.sleep(1.0)
     n_killed = len(list(runs.glob("*.json")))
     assert not subprocess.run(["pgrep", "-f", str(cut)], capture_output=True).stdout   # YADE died with it
+    # a progress file of the killed driver, for a run it never finished: not a running run on resume
+    prog = cut / "results" / ".progress"
+    prog.mkdir(exist_ok=True)
+    done = {json.loads(f.read_text())["key"] for f in runs.glob("*.json")}
+    for run in S.runs(S.load(str(pc))):
+        if run["key"] not in done:
+            (prog / f"{run['key']}.json").write_text(json.dumps(
+                {"name": run["name"], "t": 3.0, "t_end": 4.0, "steps_per_s": 1.0, "eta_s": 1.0, "state": "running"}))
     r = subprocess.run(_driver(pc, "--workers", "1"), cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert f"{n_killed} already complete, {6 - n_killed} to do" in r.stdout, r.stdout
+    running = [int(m) for m in re.findall(r"runs done, (\d+) running", r.stdout)]
+    assert running and max(running) <= 1, r.stdout      # one worker: never two runs in flight
     assert 1 <= n_killed < 6
     a, b = _records(ref), _records(cut)
     assert sorted(a) == sorted(b)
