@@ -70,12 +70,13 @@ def plot_all(results, log=print):
                       mfc="none" if prot != "paired" else None, label=f"{shape}, {case}, {prot}")
             _bars(axes[0], 100 * g["mass_error"].to_numpy(), g, **kw)
             _bars(axes[1], 100 * g["k2_error"].to_numpy(), g, **dict(kw, label=None))
+        maps = _collision_maps(results)
         if (eff["protocol"] == "equal_energy").any():  # hard particles, equal energy: D ~ m^-1/2
-            xm = 100 * eff["mass_error"].to_numpy(dtype=float)
+            xm = np.concatenate([100 * eff["mass_error"].to_numpy(dtype=float),
+                                 [100 * r["mass_error"] for m in maps for r in m["rows"]]])
             x = np.linspace(max(min(0.0, xm.min()) - 2, -50), xm.max() + 2, 200)
             axes[0].plot(x, 100 * ((1 + x / 100) ** -0.5 - 1), "k--", lw=1,
                          label="equal energy, hard particles: (1 + mass error)^(-1/2) − 1")
-        maps = _collision_maps(results)
         if maps:   # kinetic-theory predictions (benchmarks/case_map.py), the left panel only
             xs = [100 * r["mass_error"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]
             ys = [100 * r["relative"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]

@@ -380,6 +380,9 @@ def collision_map_answers(maps):
         soft = rows.get(("mass_scaled", "paired"))
         soft_txt = (f", of which the heavier mass's softness {pct(soft['relative'])} ± {100 * 1.96 * soft['se']:.2f} %"
                     if soft else "")
+        if soft and u.get("minus_mass_scaled") is not None:
+            soft_txt += (f" and the wrong k² {pct(u['minus_mass_scaled'])} ± "
+                         f"{100 * 1.96 * u['minus_mass_scaled_se']:.2f} %")
         out.append(
             f"* **Collision-map prediction, {sh['kind']} (D/d_s = {sh.get('overlap')}), "
             f"E = {m['material']['youngs_modulus']:.0e} Pa** ({m['pairs_used']} collisions per case; `{m['file']}`; "
