@@ -138,3 +138,34 @@ def test_collision_map_predictions_come_from_their_files(results_copy):
             "`tet.json`; summed mass +50.0 %, largest moment over mass -11.9 %): uncorrected vs exact, paired, "
             "+2.46 % ± 0.20 %; equal energy -16.02 % ± 0.39 % (hard particles -8.14 %).") in text
     assert text.count("Collision-map prediction, the paper's dimer") == 2
+
+
+def test_plain_words_from_the_tables_maps_and_share():
+    """The three plain answers carry the table's, the maps' and the share's numbers; the k² verdict
+    follows the largest mapped k² part; nothing to say without data."""
+    eff = [{"shape": "dimer", "overlap": 0.5, "protocol": "paired", "case": "uncorrected", "youngs_modulus": 1e7,
+            "n_pairs": 9, "relative": 0.0107, "relative_ci_low": -0.0001, "relative_ci_high": 0.0215},
+           {"shape": "dimer", "overlap": 0.5, "protocol": "equal_energy", "case": "uncorrected", "youngs_modulus": 1e7,
+            "n_pairs": 6, "relative": -0.0709, "relative_ci_low": -0.0937, "relative_ci_high": -0.0482}]
+
+    def cmap(e, soft, k2, kind="dimer"):
+        return {"shape": {"kind": kind, "overlap": 0.5}, "material": {"youngs_modulus": e}, "rows": [
+            {"case": "uncorrected", "protocol": "paired", "relative": soft + k2, "se": 0.001,
+             "iperp_over_m_error": -0.119, "minus_mass_scaled": k2, "minus_mass_scaled_se": 0.0007},
+            {"case": "mass_scaled", "protocol": "paired", "relative": soft, "se": 0.0002},
+            {"case": "uncorrected", "protocol": "equal_energy", "relative": -0.075, "se": 0.001,
+             "hard_particles": -0.0814}]}
+
+    maps = [cmap(1e7, 0.0065, 0.0067), cmap(1e9, 0.0012, 0.0083)]
+    share = {"share": -0.028, "low": -0.056, "high": 0.0001, "n_num": 9, "n_gap": 6, "gap": -0.384}
+    text = "\n".join(report.plain_words(eff, maps, share))
+    assert "+1.07 % [-0.01, +2.15] % (9 seed pairs)" in text and "predicts +1.32 % ± 0.20 %: at most 2.1 % of D" in text
+    assert "-7.09 % [-9.37, -4.82] % (6 seed pairs), resolved; predicted -7.50 % ± 0.20 %, hard particles -8.14 %, nearly all" in text
+    assert "+0.65 % ± 0.04 % is the contact's softness" in text and "+0.12 % at E = 1e+09 Pa" in text
+    assert "at most +0.83 % ± 0.14 %" in text and "no shape shows an inertia effect as large as 1 %" in text
+    assert "-0.028 [-0.056, +0.000] of a gap of -38.40 %" in text and "0.10 is outside the interval" in text
+    maps.append(cmap(1e7, 0.01, 0.015, kind="tetrahedron"))
+    text = "\n".join(report.plain_words(eff, maps, dict(share, high=0.12)))
+    assert "at most +1.50 %" in text and "(tetrahedron, D/d_s = 0.5): an inertia effect of more than 1 %" in text
+    assert "0.10 is inside the interval" in text
+    assert report.plain_words([], [], None) == []
