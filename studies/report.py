@@ -321,20 +321,22 @@ def plain_words(effect_rows, maps, share):
                        if (ge or me) else ""))
     if mp and ms and mp.get("minus_mass_scaled") is not None:
         soft = sorted((e, r[("mass_scaled", "paired")]) for e, r in paper.items() if ("mass_scaled", "paired") in r)
-        k2s = [(m["shape"]["kind"], m["shape"].get("overlap"), _map_rows(m)[("uncorrected", "paired")])
+        k2s = [(m["shape"]["kind"], m["shape"].get("overlap"), m["material"]["youngs_modulus"],
+                _map_rows(m)[("uncorrected", "paired")])
                for m in maps if ("uncorrected", "paired") in _map_rows(m)
                and _map_rows(m)[("uncorrected", "paired")].get("minus_mass_scaled") is not None]
-        big = max(k2s, key=lambda t: t[2]["minus_mass_scaled"])
+        big = max(k2s, key=lambda t: t[3]["minus_mass_scaled"])
+        top = max(r["minus_mass_scaled"] + 1.96 * r["minus_mass_scaled_se"] for *_, r in k2s)
         said.append("* **Through which part?** At the same velocities, "
                     f"{pm(ms)} is the contact's softness acting on the heavier summed mass"
                     + (" (" + ", ".join(f"{pct(r['relative'])} at E = {e:.0e} Pa" for e, r in soft[1:])
                        + ": it vanishes for hard particles)" if len(soft) > 1 else "")
                     + f", and {pm(mp, 'minus_mass_scaled', 'minus_mass_scaled_se')} the wrong radius of gyration "
                     f"(k² = I/m {pct(mp['iperp_over_m_error'], 1)}). Over the {len(k2s)} collision maps (shapes, "
-                    f"overlaps, stiffnesses) the k² part is at most {pm(big[2], 'minus_mass_scaled', 'minus_mass_scaled_se')} "
-                    f"({big[0]}, D/d_s = {big[1]}): "
-                    + ("no shape shows an inertia effect as large as 1 % of D." if big[2]["minus_mass_scaled"] < 0.01
-                       else "an inertia effect of more than 1 % of D.")
+                    f"overlaps, stiffnesses) the largest k² part is {pm(big[3], 'minus_mass_scaled', 'minus_mass_scaled_se')} "
+                    f"({big[0]}, D/d_s = {big[1]}, E = {big[2]:.0e} Pa); "
+                    + (f"every one is below 1 % of D at 95 % (at most {pct(top)})." if top < 0.01
+                       else f"the inertia effect is of the order of 1 % of D and below {pct(top)} at 95 % in every map.")
                     + " At the same energy the mass error acts through the thermal speed, sqrt(m_exact/m_summed).")
     if share is not None and np.isfinite(share["low"]):
         where = ("inside" if share["low"] <= 0.10 <= share["high"] else "outside")

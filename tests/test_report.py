@@ -162,10 +162,12 @@ def test_plain_words_from_the_tables_maps_and_share():
     assert "+1.07 % [-0.01, +2.15] % (9 seed pairs)" in text and "predicts +1.32 % ± 0.20 %: at most 2.1 % of D" in text
     assert "-7.09 % [-9.37, -4.82] % (6 seed pairs), resolved; predicted -7.50 % ± 0.20 %, hard particles -8.14 %, nearly all" in text
     assert "+0.65 % ± 0.04 % is the contact's softness" in text and "+0.12 % at E = 1e+09 Pa" in text
-    assert "at most +0.83 % ± 0.14 %" in text and "no shape shows an inertia effect as large as 1 %" in text
+    assert "the largest k² part is +0.83 % ± 0.14 % (dimer, D/d_s = 0.5, E = 1e+09 Pa)" in text
+    assert "every one is below 1 % of D at 95 % (at most +0.97 %)" in text
     assert "-0.028 [-0.056, +0.000] of a gap of -38.40 %" in text and "0.10 is outside the interval" in text
     maps.append(cmap(1e7, 0.01, 0.015, kind="tetrahedron"))
     text = "\n".join(report.plain_words(eff, maps, dict(share, high=0.12)))
-    assert "at most +1.50 %" in text and "(tetrahedron, D/d_s = 0.5): an inertia effect of more than 1 %" in text
+    assert "is +1.50 % ± 0.14 % (tetrahedron, D/d_s = 0.5, E = 1e+07 Pa)" in text
+    assert "of the order of 1 % of D and below +1.64 % at 95 %" in text
     assert "0.10 is inside the interval" in text
     assert report.plain_words([], [], None) == []
