@@ -82,7 +82,9 @@ def label(case, protocol):
 def load_records(spec):
     """(manifest rows, records by key) of a spec's runs, from the results directory."""
     rdir = engine.results_dir(spec)
-    return engine.reconcile(spec, S.runs(spec), rdir), design.load_records(spec, rdir)
+    recs = design.load_records(spec, rdir)
+    extra = design.plan(spec, rdir, recs)[0] if any(g.get("target") for g in spec["groups"]) else {}
+    return engine.reconcile(spec, S.runs(spec, extra_seeds=extra), rdir), recs
 
 
 def analyze(spec, log=print):

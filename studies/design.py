@@ -93,10 +93,22 @@ def run_d(rec, t_eq):
     return {"D": float(d), "D_stderr": float(se), "t_cut": t_cut, "t_cut_detected": detected}
 
 
-def load_records(spec, rdir):
-    """Every finished record of a spec's runs, by key (runs without a record are left out)."""
+def possible_extra_seeds(spec):
+    """{group index: every seed :func:`plan` could ever add}: the next integers after the largest
+    listed seed, up to ``max_seeds`` seeds in the group (sequential groups only)."""
     out = {}
-    for run in S.runs(spec):
+    for gi, g in enumerate(spec["groups"]):
+        if g.get("target"):
+            nxt = max(g["seeds"]) + 1
+            out[gi] = list(range(nxt, nxt + max(0, g["max_seeds"] - len(g["seeds"]))))
+    return out
+
+
+def load_records(spec, rdir):
+    """Every finished record of a spec's runs, by key (runs without a record are left out), the
+    seeds the sequential design added included."""
+    out = {}
+    for run in S.runs(spec, extra_seeds=possible_extra_seeds(spec)):
         path = runner.record_path(rdir, run)
         if runner.is_complete(path, run["key"]):
             with open(path) as f:

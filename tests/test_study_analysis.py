@@ -211,6 +211,18 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     assert extra2[0] == [] and status2[0]["state"] == "budget spent"
     line = design.describe(0, sp2["groups"][0], status2[0])
     assert "budget" in line and f"vs exact, {sp2['groups'][0]['protocol']})" in line
+    # the added seeds' records count once written: the next plan extends past them, and the
+    # report's and effects.csv's readers see them
+    rng = np.random.default_rng(5)
+    for run in S.runs(sp, extra_seeds=extra):
+        if run["seed"] in (13, 14):
+            fr, v0 = frames_of(rng, 48, 250.0, 0.5)
+            write_record(rdir, run, fr, v0, [0.0], 100.0)
+    recs = design.load_records(sp, rdir)
+    assert {r["params"]["seed"] for r in recs.values()} == set(range(1, 15))
+    extra_b, status_b = design.plan(sp, rdir)
+    assert extra_b[0] == [13, 14, 15, 16] and status_b[0]["n"] == 14
+    assert len(effects.paired_values([sp])[0][3]) == 14
     sp3, rdir3 = _sequential(tmp_path / "c", noise_sd=0.3, max_seeds=12)
     extra3, status3 = design.plan(sp3, rdir3)
     assert extra3[0] == [] and status3[0]["state"] == "max_seeds reached"
