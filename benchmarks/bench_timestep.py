@@ -177,6 +177,8 @@ def run_map(inp, factor, yade, tmp, name):
                 out = json.load(f)
             out["reused"] = True
             return out
+    if os.path.exists(fout):       # another input's output: never reusable once fin is rewritten
+        os.remove(fout)
     with open(fin, "w") as f:
         f.write(text)
     env = dict(os.environ, OMP_NUM_THREADS="1")
@@ -193,11 +195,13 @@ def run_map(inp, factor, yade, tmp, name):
         raise RuntimeError(f"no YADE {yade} here (the native one is {native_yade_version()})")
     t0 = time.time()
     c0 = cpu_children()
-    p = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    if stage is not None:
-        if os.path.exists(os.path.join(stage, "out.json")):
+    try:
+        p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        if stage is not None and os.path.exists(os.path.join(stage, "out.json")):
             shutil.move(os.path.join(stage, "out.json"), fout)
-        shutil.rmtree(stage, ignore_errors=True)
+    finally:
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
     if p.returncode != 0 or not os.path.exists(fout):
         raise RuntimeError(f"collision map {name} f={factor} failed ({p.returncode}):\n{p.stdout[-2000:]}\n"
                            f"{p.stderr[-2000:]}")

@@ -61,24 +61,25 @@ def collect(specs):
 
 
 def paired_values(specs):
-    """[(group facts, case, protocol, per-seed D_case/D_exact - 1, yade versions, rot algorithms)] for
-    every pair key: the seeds where both the case and exact ran, in seed order."""
+    """[(group facts, case, protocol, per-seed D_case/D_exact - 1, yade versions, rot algorithms, seeds)]
+    for every pair key: the seeds where both the case and exact ran, in seed order."""
     by, facts = collect(specs)
     out = []
     for pk, seeds in by.items():
         combos = sorted({c for s in seeds.values() for c in s if c[0] != "exact"})
         for case, protocol in combos:
-            vals, yv, ra = [], set(), set()
+            vals, yv, ra, used = [], set(), set(), []
             for seed, cases in sorted(seeds.items()):
                 ex = cases.get(("exact", "paired"))
                 cc = cases.get((case, protocol))
                 if ex is None or cc is None:
                     continue
                 vals.append(cc[0] / ex[0] - 1.0)
+                used.append(seed)
                 yv |= {ex[1]["yade_version"], cc[1]["yade_version"]}
                 ra |= {ex[1]["rot_algorithm"], cc[1]["rot_algorithm"]}
             if vals:
-                out.append((facts[pk], case, protocol, vals, yv, ra))
+                out.append((facts[pk], case, protocol, vals, yv, ra, used))
     return out
 
 
@@ -90,7 +91,7 @@ def effect_rows(specs):
     from .estimators import t_interval
 
     rows = []
-    for p, case, protocol, vals, yv, ra in paired_values(specs):
+    for p, case, protocol, vals, yv, ra, _ in paired_values(specs):
         shape = p["shape"]["definition"]
         m, lo, hi, se, n = t_interval(vals)
         rho = p["material"]["density"]

@@ -392,7 +392,7 @@ def fieller_ratio(a, b, conf=0.95):
 
     For the paper's "about 10 %": a = per-seed D_uncorrected/D_exact - 1 (paired runs), b = per-seed
     D_spheres/D_exact - 1 (other paired runs); seeds are the independent units of each.  When
-    mean(b) is not resolved from 0 (the quadratic opens upwards) the set is unbounded: low and high
+    mean(b) is not resolved from 0 (mean(b)^2 <= q^2 se_b^2) the set is unbounded: low and high
     are NaN.  Coverage on normal samples of the study's sizes: tests/test_estimators.py.
     """
     a = np.asarray(a, dtype=np.float64)

@@ -240,28 +240,29 @@ def _same_spin_answers(specs):
 def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7):
     """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
-    D_spheres/D_exact - 1 of the sphere gas against exact (other seeds' runs: independent), with
-    Fieller's 95 % interval (studies.estimators.fieller_ratio; coverage checked in the tests)."""
+    D_spheres/D_exact - 1 of the sphere gas against exact (other runs: independent), with Fieller's
+    95 % interval (studies.estimators.fieller_ratio; coverage checked in the tests).  None without
+    two pairs of each, or when both share exact runs (one pair key and common seeds)."""
     from .estimators import fieller_ratio
 
     def best(case):
-        c = [v for p, cs, prot, v, *_ in effects.paired_values(specs)
+        c = [(v, effects._pair_key(p), sd) for p, cs, prot, v, _, _, sd in effects.paired_values(specs)
              if cs == case and prot == "paired" and p["shape"]["definition"].get("kind") == shape
              and p["shape"]["definition"].get("overlap") == overlap
              and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition"]
-        return max(c, key=len) if c else []
+        return max(c, key=lambda t: len(t[0])) if c else ([], None, [])
 
-    a, b = best("uncorrected"), best("spheres")
-    if len(a) < 2 or len(b) < 2:
+    (a, ka, sa), (b, kb, sb) = best("uncorrected"), best("spheres")
+    if len(a) < 2 or len(b) < 2 or (ka == kb and set(sa) & set(sb)):   # shared exact runs: not independent
         return None
     th, lo, hi, _, na, nb = fieller_ratio(a, b)
     return {"share": th, "low": lo, "high": hi, "n_num": na, "n_gap": nb, "gap": float(np.mean(b)),
             "shape": shape, "youngs_modulus": youngs_modulus}
 
 
-def paper_share_answers(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7):
-    """The bullet of :func:`paper_share` (empty without both samples)."""
-    r = paper_share(specs, shape, overlap, youngs_modulus)
+def paper_share_answers(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, share=False):
+    """The bullet of :func:`paper_share` (empty without both samples); ``share``: its result, if known."""
+    r = paper_share(specs, shape, overlap, youngs_modulus) if share is False else share
     if r is None:
         return []
     th, lo, hi, na, nb = r["share"], r["low"], r["high"], r["n_num"], r["n_gap"]
@@ -304,39 +305,47 @@ def plain_words(effect_rows, maps, share):
     mp, me, ms = m7.get(("uncorrected", "paired")), m7.get(("uncorrected", "equal_energy")), m7.get(("mass_scaled", "paired"))
     out = ["## In plain words", ""]
     said = []
-    if gp or mp:
-        said.append("* **Does the correction matter for D?** With the paper's protocol (the same velocities for every "
-                    "case) the uncorrected dimer's D differs from exact's by "
-                    + (ci(gp) if gp else "(no gas interval yet)")
-                    + (f", and the collision map predicts {pm(mp)}" if mp else "")
-                    + (f": at most {100 * max(abs(gp['relative_ci_low']), abs(gp['relative_ci_high'])):.1f} % of D at 95 %."
-                       if gp and np.isfinite(gp["relative_ci_low"]) else ".")
-                    + ((" With the same kinetic energy for every case: "
-                        + (ci(ge) + ("" if ge["relative_ci_low"] <= 0 <= ge["relative_ci_high"] else ", resolved")
-                           if ge else "")
-                        + (f"; predicted {pm(me)}, hard particles {pct(me['hard_particles'])}" if me else "")
-                        + (", nearly all of it the summed mass through the thermal speed."
-                           if me and abs(me["relative"] - me["hard_particles"]) < 0.25 * abs(me["hard_particles"])
-                           else "."))
-                       if (ge or me) else ""))
+    if gp or mp or ge or me:
+        parts = []
+        if gp or mp:
+            c = ("With the paper's protocol (the same velocities for every case) the uncorrected dimer's D differs "
+                 "from exact's by " + (ci(gp) if gp else "(no gas interval yet)")
+                 + (f", and the collision map predicts {pm(mp)}" if mp else ""))
+            if gp and np.isfinite(gp["relative_ci_low"]):
+                c += f": at most {100 * max(abs(gp['relative_ci_low']), abs(gp['relative_ci_high'])):.1f} % of D at 95 %"
+            parts.append(c + ".")
+        if ge or me:
+            sub = []
+            if ge:
+                sub.append(ci(ge) + ("" if ge["relative_ci_low"] <= 0 <= ge["relative_ci_high"] else ", resolved"))
+            if me:
+                sub.append(f"predicted {pm(me)}, hard particles {pct(me['hard_particles'])}")
+            c = "With the same kinetic energy for every case: " + "; ".join(sub)
+            if me and abs(me["relative"] - me["hard_particles"]) < 0.25 * abs(me["hard_particles"]):
+                c += ", nearly all of it the summed mass through the thermal speed"
+            parts.append(c + ".")
+        said.append("* **Does the correction matter for D?** " + " ".join(parts))
     if mp and ms and mp.get("minus_mass_scaled") is not None:
         soft = sorted((e, r[("mass_scaled", "paired")]) for e, r in paper.items() if ("mass_scaled", "paired") in r)
+        others = [(e, r) for e, r in soft if e != 1e7]
+        falls = len(soft) > 1 and all(abs(b[1]["relative"]) < abs(a[1]["relative"]) for a, b in zip(soft, soft[1:]))
         k2s = [(m["shape"]["kind"], m["shape"].get("overlap"), m["material"]["youngs_modulus"],
                 _map_rows(m)[("uncorrected", "paired")])
                for m in maps if ("uncorrected", "paired") in _map_rows(m)
                and _map_rows(m)[("uncorrected", "paired")].get("minus_mass_scaled") is not None]
-        big = max(k2s, key=lambda t: t[3]["minus_mass_scaled"])
-        top = max(r["minus_mass_scaled"] + 1.96 * r["minus_mass_scaled_se"] for *_, r in k2s)
+        big = max(k2s, key=lambda t: abs(t[3]["minus_mass_scaled"]))
+        top = max(abs(r["minus_mass_scaled"]) + 1.96 * r["minus_mass_scaled_se"] for *_, r in k2s)
         said.append("* **Through which part?** At the same velocities, "
                     f"{pm(ms)} is the contact's softness acting on the heavier summed mass"
-                    + (" (" + ", ".join(f"{pct(r['relative'])} at E = {e:.0e} Pa" for e, r in soft[1:])
-                       + ": it vanishes for hard particles)" if len(soft) > 1 else "")
+                    + (" (" + ", ".join(f"{pct(r['relative'])} at E = {e:.0e} Pa" for e, r in others)
+                       + (": it falls as the contact stiffens, towards hard particles, which cannot feel it)"
+                          if falls else ")") if others else "")
                     + f", and {pm(mp, 'minus_mass_scaled', 'minus_mass_scaled_se')} the wrong radius of gyration "
                     f"(k² = I/m {pct(mp['iperp_over_m_error'], 1)}). Over the {len(k2s)} collision maps (shapes, "
                     f"overlaps, stiffnesses) the largest k² part is {pm(big[3], 'minus_mass_scaled', 'minus_mass_scaled_se')} "
-                    f"({big[0]}, D/d_s = {big[1]}, E = {big[2]:.0e} Pa); "
-                    + (f"every one is below 1 % of D at 95 % (at most {pct(top)})." if top < 0.01
-                       else f"the inertia effect is of the order of 1 % of D and below {pct(top)} at 95 % in every map.")
+                    f"({big[0]}, D/d_s = {big[1]}, E = {big[2]:.0e} Pa); in every map its size is below "
+                    f"{100 * top:.2f} % of D at 95 %"
+                    + (": no shape shows an inertia effect as large as 1 % of D." if top < 0.01 else ".")
                     + " At the same energy the mass error acts through the thermal speed, sqrt(m_exact/m_summed).")
     if share is not None and np.isfinite(share["low"]):
         where = ("inside" if share["low"] <= 0.10 <= share["high"] else "outside")
@@ -349,7 +358,7 @@ def plain_words(effect_rows, maps, share):
     return out + said + [""]
 
 
-def answers_section(lines, specs, sph, effect_rows=(), maps=()):
+def answers_section(lines, specs, sph, effect_rows=(), maps=(), share=False):
     lines += ["## The answers so far", ""]
     d = os.path.join(RESULTS, "granular_gas", "diff_D.csv")
     rows = _status_rows(specs)
@@ -374,7 +383,7 @@ def answers_section(lines, specs, sph, effect_rows=(), maps=()):
                      f"first version, paper scale): {u.ratio:+.3f} [{u.ci_low:+.3f}, {u.ci_high:+.3f}] over "
                      f"{u.n_seeds} seeds, which " + ("contains 0.10 and 0: not resolved." if within and u.ci_low <= 0
                                                      else "contains 0.10." if within else "excludes 0.10."))
-    lines += paper_share_answers(specs)
+    lines += paper_share_answers(specs, share=share)
     for r in sph:
         lo, hi = r["ratio_hertz_ci_low"] - 1, r["ratio_hertz_ci_high"] - 1
         consistent = lo <= 0 <= hi
@@ -530,8 +539,9 @@ def build():
     sph = sphere_gas.read(os.path.join(RESULTS, "sphere_gas.csv"))
     figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
     maps = read_collision_maps()
-    lines += plain_words(rows, maps, paper_share(specs))
-    answers_section(lines, specs, sph, rows, maps)
+    share = paper_share(specs)
+    lines += plain_words(rows, maps, share)
+    answers_section(lines, specs, sph, rows, maps, share)
     fig2_section(lines)
     programme_section(lines, specs)
     effects_section(lines, rows)

@@ -161,13 +161,23 @@ def test_plain_words_from_the_tables_maps_and_share():
     text = "\n".join(report.plain_words(eff, maps, share))
     assert "+1.07 % [-0.01, +2.15] % (9 seed pairs)" in text and "predicts +1.32 % ± 0.20 %: at most 2.1 % of D" in text
     assert "-7.09 % [-9.37, -4.82] % (6 seed pairs), resolved; predicted -7.50 % ± 0.20 %, hard particles -8.14 %, nearly all" in text
-    assert "+0.65 % ± 0.04 % is the contact's softness" in text and "+0.12 % at E = 1e+09 Pa" in text
+    assert "+0.65 % ± 0.04 % is the contact's softness" in text
+    assert "(+0.12 % at E = 1e+09 Pa: it falls as the contact stiffens" in text
     assert "the largest k² part is +0.83 % ± 0.14 % (dimer, D/d_s = 0.5, E = 1e+09 Pa)" in text
-    assert "every one is below 1 % of D at 95 % (at most +0.97 %)" in text
+    assert "in every map its size is below 0.97 % of D at 95 %: no shape shows an inertia effect as large" in text
     assert "-0.028 [-0.056, +0.000] of a gap of -38.40 %" in text and "0.10 is outside the interval" in text
     maps.append(cmap(1e7, 0.01, 0.015, kind="tetrahedron"))
     text = "\n".join(report.plain_words(eff, maps, dict(share, high=0.12)))
     assert "is +1.50 % ± 0.14 % (tetrahedron, D/d_s = 0.5, E = 1e+07 Pa)" in text
-    assert "of the order of 1 % of D and below +1.64 % at 95 %" in text
+    assert "in every map its size is below 1.64 % of D at 95 %." in text
     assert "0.10 is inside the interval" in text
+    # a large negative k² part is the largest; a softer map (1e6) is listed, not dropped; no fall, no claim
+    maps.append(cmap(1e7, 0.01, -0.03, kind="trimer_triangle"))
+    maps.append(cmap(1e6, 0.0001, 0.0067))
+    text = "\n".join(report.plain_words(eff, maps, share))
+    assert "is -3.00 % ± 0.14 % (trimer_triangle" in text and "below 3.14 % of D" in text
+    assert "+0.01 % at E = 1e+06 Pa, +0.12 % at E = 1e+09 Pa)" in text and "falls as the contact" not in text
+    # an equal-energy map row without gas rows: no empty clause
+    text = "\n".join(report.plain_words([], [cmap(1e7, 0.0065, 0.0067)], None))
+    assert "With the same kinetic energy for every case: predicted -7.50 %" in text and ": ;" not in text
     assert report.plain_words([], [], None) == []

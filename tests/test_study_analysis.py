@@ -280,3 +280,10 @@ def test_paper_share_from_independent_runs_covers_the_known_ratio(tmp_path):
         if run["case"] == "spheres":
             os.remove(runner.record_path(rdir, run))
     assert report.paper_share_answers([sp]) == []
+    # numerator and gap from the same exact runs (one pair key) are not independent: no statement
+    sp2 = spec_for(tmp_path / "one", [{"shape": "dimer", "cases": ["exact", "uncorrected", "spheres"],
+                                       "seeds": [1, 2, 3, 4]}])
+    for run in S.runs(sp2):
+        fr, v0 = frames_of(rng, 48, 200.0, 0.5, scale[run["case"]])
+        write_record(engine.results_dir(sp2), run, fr, v0, [0.0], 100.0)
+    assert len(effects.paired_values([sp2])) == 2 and report.paper_share([sp2]) is None

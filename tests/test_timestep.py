@@ -3,6 +3,7 @@ follow the gas's distributions, a head-on dimer collision ends as the exact 1-D 
 exchange with a second-order energy error, and free rotation of the triangle trimer on
 YADE 2025.2 keeps its energy and angular momentum to second order once the initial angular
 velocity is carried back half a step (a few seconds of YADE each)."""
+import json
 import math
 import os
 import shutil
@@ -93,16 +94,19 @@ def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
     # the second factor's files live outside /tmp and the repository, which the Debian 13 root
     # does not see: run_map stages them
     outside = tempfile.mkdtemp(prefix="clumpprops-test-", dir="/var/tmp")
-    for f, work in ((0.5, str(tmp_path)), (1.0, outside)):
-        out = bt.run_map(inp, f, "2025.2", work, "free")
-        assert os.path.exists(os.path.join(work, f"free-f{f}.out.json"))
+    try:
+        outs = {f: bt.run_map(inp, f, "2025.2", work, "free") for f, work in ((0.5, str(tmp_path)), (1.0, outside))}
+        assert os.path.exists(os.path.join(outside, "free-f1.0.out.json"))
+    finally:
+        shutil.rmtree(outside, ignore_errors=True)
+    for f in (0.5, 1.0):
+        out = outs[f]
         assert out["rot_algorithm"] == "delValle2023" and out["touched"] == [False]
         o = bt.outcome(inp, out)
         L0 = np.abs(np.asarray(inp["angvel"])).max() * 0.01
         errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
         assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
     assert errs[1.0] < 1e-4 and errs[0.5] < errs[1.0] / 3         # second order
-    shutil.rmtree(outside)
 
 
 def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_gas_check():
@@ -120,3 +124,14 @@ def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_ga
     rows[2] = dict(rows[2], D_rel_pred=-3e-3)           # the predicted D error too large at 1.0
     assert bt.decide("x", {"rows": rows}, None)["largest_safe_factor"] == 0.5
     assert bt.decide("x", {"rows": rows[:2]}, None)["largest_safe_factor"] == 0.5  # map only: the map decides
+
+
+def test_run_map_never_reuses_another_inputs_output(tmp_path):
+    """An output left next to an older input is removed before the new input is run, so a run that
+    then fails (here: no such YADE) cannot leave the old result to be reused by the next call."""
+    inp = _head_on()
+    (tmp_path / "x-f0.5.in.json").write_text(json.dumps({"old": True}))
+    (tmp_path / "x-f0.5.out.json").write_text(json.dumps({"stale": True}))
+    with pytest.raises(RuntimeError, match="no YADE"):
+        bt.run_map(inp, 0.5, "1999.1", str(tmp_path), "x")
+    assert not (tmp_path / "x-f0.5.out.json").exists()
