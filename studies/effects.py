@@ -87,11 +87,12 @@ def shape_name(shape):
     return shape["kind"] if shape["kind"] != "file" else os.path.basename(shape["path"])
 
 
-def effect_rows(specs):
+def effect_rows(specs, values=None):
+    """effects.csv's rows; ``values``: :func:`paired_values` of ``specs``, if already read."""
     from .estimators import t_interval
 
     rows = []
-    for p, case, protocol, vals, yv, ra, _ in paired_values(specs):
+    for p, case, protocol, vals, yv, ra, _ in (paired_values(specs) if values is None else values):
         shape = p["shape"]["definition"]
         m, lo, hi, se, n = t_interval(vals)
         rho = p["material"]["density"]
@@ -104,8 +105,8 @@ def effect_rows(specs):
     return rows
 
 
-def write(specs, path):
-    rows = effect_rows(specs)
+def write(specs, path, values=None):
+    rows = effect_rows(specs, values)
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")

@@ -30,18 +30,29 @@ def _read(path):
     return pd.read_csv(path) if os.path.exists(path) else None
 
 
-def _collision_maps(results):
+def read_collision_maps(results):
+    """The collision-map predictions under ``results``/collision_map/ (benchmarks/case_map.py): a list
+    of dicts (shape, material, pairs_used, rows: case, protocol, relative, se, hard_particles, ...),
+    each with its file name under ``file``, by overlap and Young's modulus."""
     import json
 
     d = os.path.join(results, "collision_map")
-    if not os.path.isdir(d):
-        return []
     out = []
-    for f in sorted(os.listdir(d)):
-        if f.endswith(".json"):
-            with open(os.path.join(d, f)) as fh:
-                out.append(json.load(fh))
+    if os.path.isdir(d):
+        for f in sorted(os.listdir(d)):
+            if f.endswith(".json"):
+                with open(os.path.join(d, f)) as fh:
+                    m = json.load(fh)
+                m["file"] = f
+                out.append(m)
+    out.sort(key=lambda m: (m["shape"].get("overlap", 0), m["material"]["youngs_modulus"]))
     return out
+
+
+def is_paper_dimer(m):
+    """Whether a collision map is of the paper's dimer (overlap D/d_s = 0.5)."""
+    sh = m.get("shape", {})
+    return sh.get("kind") == "dimer" and abs(float(sh.get("overlap", 0)) - 0.5) <= 1e-12
 
 
 def _bars(ax, x, r, **kw):
@@ -70,7 +81,7 @@ def plot_all(results, log=print):
                       mfc="none" if prot != "paired" else None, label=f"{shape}, {case}, {prot}")
             _bars(axes[0], 100 * g["mass_error"].to_numpy(), g, **kw)
             _bars(axes[1], 100 * g["k2_error"].to_numpy(), g, **dict(kw, label=None))
-        maps = _collision_maps(results)
+        maps = read_collision_maps(results)
         if (eff["protocol"] == "equal_energy").any():  # hard particles, equal energy: D ~ m^-1/2
             xm = np.concatenate([100 * eff["mass_error"].to_numpy(dtype=float),
                                  [100 * r["mass_error"] for m in maps for r in m["rows"]]])
@@ -142,10 +153,7 @@ DECOMP_CASES = ["uncorrected", "mass_only", "inertia_only", "mass_scaled"]
 def _dimer_map_series(maps):
     """{case: [(E, relative, se), ...]} of the paper's dimer (D/d_s = 0.5), paired, from the collision maps."""
     out = {}
-    for m in maps:
-        sh = m.get("shape", {})
-        if sh.get("kind") != "dimer" or abs(float(sh.get("overlap", 0)) - 0.5) > 1e-12:
-            continue
+    for m in filter(is_paper_dimer, maps):
         E = float(m["material"]["youngs_modulus"])
         for r in m["rows"]:
             if r["protocol"] == "paired" and r["case"] in DECOMP_CASES:

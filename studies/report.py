@@ -237,16 +237,19 @@ def _same_spin_answers(specs):
     return out
 
 
-def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7):
+def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=None):
     """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
     D_spheres/D_exact - 1 of the sphere gas against exact (other runs: independent), with Fieller's
     95 % interval (studies.estimators.fieller_ratio; coverage checked in the tests).  None without
-    two pairs of each, or when both share exact runs (one pair key and common seeds)."""
+    two pairs of each, or when both share exact runs (one pair key and common seeds).  ``values``:
+    :func:`studies.effects.paired_values` of ``specs``, if already read."""
     from .estimators import fieller_ratio
 
+    values = effects.paired_values(specs) if values is None else values
+
     def best(case):
-        c = [(v, effects._pair_key(p), sd) for p, cs, prot, v, _, _, sd in effects.paired_values(specs)
+        c = [(v, effects._pair_key(p), sd) for p, cs, prot, v, _, _, sd in values
              if cs == case and prot == "paired" and p["shape"]["definition"].get("kind") == shape
              and p["shape"]["definition"].get("overlap") == overlap
              and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition"]
@@ -298,8 +301,7 @@ def plain_words(effect_rows, maps, share):
     def pm(r, key="relative", se="se"):
         return f"{pct(r[key])} ± {100 * 1.96 * r[se]:.2f} %"
 
-    paper = {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps
-             if m["shape"].get("kind") == "dimer" and m["shape"].get("overlap") == 0.5}
+    paper = {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
     m7 = paper.get(1e7, {})
     gp, ge = _effect_row(effect_rows, "paired"), _effect_row(effect_rows, "equal_energy")
     mp, me, ms = m7.get(("uncorrected", "paired")), m7.get(("uncorrected", "equal_energy")), m7.get(("mass_scaled", "paired"))
@@ -329,10 +331,9 @@ def plain_words(effect_rows, maps, share):
         soft = sorted((e, r[("mass_scaled", "paired")]) for e, r in paper.items() if ("mass_scaled", "paired") in r)
         others = [(e, r) for e, r in soft if e != 1e7]
         falls = len(soft) > 1 and all(abs(b[1]["relative"]) < abs(a[1]["relative"]) for a, b in zip(soft, soft[1:]))
-        k2s = [(m["shape"]["kind"], m["shape"].get("overlap"), m["material"]["youngs_modulus"],
-                _map_rows(m)[("uncorrected", "paired")])
-               for m in maps if ("uncorrected", "paired") in _map_rows(m)
-               and _map_rows(m)[("uncorrected", "paired")].get("minus_mass_scaled") is not None]
+        k2s = [(m["shape"]["kind"], m["shape"].get("overlap"), m["material"]["youngs_modulus"], u)
+               for m in maps for u in [_map_rows(m).get(("uncorrected", "paired"))]
+               if u is not None and u.get("minus_mass_scaled") is not None]
         big = max(k2s, key=lambda t: abs(t[3]["minus_mass_scaled"]))
         top = max(abs(r["minus_mass_scaled"]) + 1.96 * r["minus_mass_scaled_se"] for *_, r in k2s)
         said.append("* **Through which part?** At the same velocities, "
@@ -406,22 +407,6 @@ def answers_section(lines, specs, sph, effect_rows=(), maps=(), share=False):
     lines.append("")
 
 
-def read_collision_maps(path=None):
-    """The collision-map predictions under results/collision_map/ (benchmarks/case_map.py): a list of
-    dicts (shape, material, pairs_used, rows: case, protocol, relative, se, hard_particles, ...)."""
-    path = path or os.path.join(RESULTS, "collision_map")
-    out = []
-    if os.path.isdir(path):
-        for f in sorted(os.listdir(path)):
-            if f.endswith(".json"):
-                with open(os.path.join(path, f)) as fh:
-                    d = json.load(fh)
-                d["file"] = f
-                out.append(d)
-    out.sort(key=lambda d: (d["shape"].get("overlap", 0), d["material"]["youngs_modulus"]))
-    return out
-
-
 def _measured(effect_rows, shape, e_mod, case, protocol):
     for r in effect_rows:
         if (r["shape"] == shape["kind"] and str(r["overlap"]) == str(shape.get("overlap", ""))
@@ -434,9 +419,9 @@ def collision_map_answers(maps):
     """Bullets: for each dimer map, what the collision integral predicts for the paired protocol, split
     into the softness of the heavier mass (``mass_scaled``) and the rest (k^2)."""
     out = []
-    paper = [m for m in maps if m["shape"].get("kind") == "dimer" and m["shape"].get("overlap") == 0.5]
+    paper = [m for m in maps if effects_plots.is_paper_dimer(m)]
     for m in paper:
-        rows = {(r["case"], r["protocol"]): r for r in m["rows"]}
+        rows = _map_rows(m)
         u, sc = rows.get(("uncorrected", "paired")), rows.get(("mass_scaled", "paired"))
         if not (u and sc):
             continue
@@ -462,7 +447,7 @@ def collision_map_answers(maps):
     for m in maps:     # the other shapes and overlaps: the paired effect (the k^2 question) and equal energy
         if m in paper:
             continue
-        rows = {(r["case"], r["protocol"]): r for r in m["rows"]}
+        rows = _map_rows(m)
         u, ee = rows.get(("uncorrected", "paired")), rows.get(("uncorrected", "equal_energy"))
         if not (u and ee):
             continue
@@ -530,7 +515,8 @@ def sphere_gas_section(lines, sph):
 
 def build():
     specs = effects.committed_specs()
-    rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"))
+    values = effects.paired_values(specs)     # every record read once, for effects.csv and the share
+    rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"), values=values)
     lines = ["# Results", "",
              "Generated by `.venv/bin/python -m studies.report` from the tables and run records under "
              "`results/`; every interval is a 95 % Student-t interval over seeds (the independent units), "
@@ -538,8 +524,8 @@ def build():
              "autocorrelation (docs/estimator.md) unless a table says otherwise.", ""]
     sph = sphere_gas.read(os.path.join(RESULTS, "sphere_gas.csv"))
     figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
-    maps = read_collision_maps()
-    share = paper_share(specs)
+    maps = effects_plots.read_collision_maps(RESULTS)
+    share = paper_share(specs, values=values)
     lines += plain_words(rows, maps, share)
     answers_section(lines, specs, sph, rows, maps, share)
     fig2_section(lines)
