@@ -286,6 +286,8 @@ def analyze(spec, log=print):
         "shapes": spec["shapes"], "groups": spec["groups"], "spheres": spec["spheres"],
         "n_particles": spec["gas"]["n_particles"], "box_length": any_run.get("box_length"),
         "t_end": spec["run"]["t_end"], "dt": any_run.get("facts", {}).get("dt"), "t_eq": t_eq,
+        # every time step of the runs (several when the study raised run.dt_factor, run.legacy_dt)
+        "dts": sorted({r["facts"]["dt"] for _, _, r in runs if "dt" in r.get("facts", {})}),
         "fit_window_s": [a["fit_lo"], a["fit_hi"]], "estimator": ESTIMATOR,
         "case_bodies": {r["case"]: r["case_body"] for _, _, r in runs},
         "model_version": S.MODEL_VERSION,

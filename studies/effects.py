@@ -9,6 +9,11 @@ per shape x overlap x protocol x Young's modulus x case against ``exact``:
 ``relative`` is the mean over seeds of D_case / D_exact - 1, paired by seed (the two runs of a
 pair share their initial state and every parameter but the case), with a 95 % Student-t
 interval over the seeds (the independent units).  D of a run: :func:`studies.design.run_d`.
+Pairs made at different time-step factors (a study that raised ``run.dt_factor`` and kept its
+earlier seeds, ``run.legacy_dt``) are pooled into one row, one pair per seed (the smaller factor
+where a seed has both): each pair is made at one dt, and a case's D moves by about 3e-4 between
+factors 0.5 and 1.0 (docs/timestep.md, the dimer), so a paired ratio by at most 6e-4, against
+half-widths of >= 5e-3.
 ``mass_error`` = m_sum / m_exact - 1 and ``k2_error`` the relative error of the summed clump's
 squared radius of gyration tr(I) / 2m (:mod:`studies.shapes`).
 """
@@ -17,6 +22,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,26 +66,50 @@ def collect(specs):
     return by, facts
 
 
+class Paired(NamedTuple):
+    """One effects row's paired sample: per-seed D_case/D_exact - 1 in seed order, the seeds, the
+    run keys of the exact runs used (two samples that share none are independent), and the YADE
+    versions and rotation algorithms of its runs."""
+    facts: dict
+    case: str
+    protocol: str
+    values: list
+    yade_versions: set
+    rot_algorithms: set
+    seeds: list
+    exact_keys: set
+
+
+def _row_key(params):
+    """:func:`_pair_key` without the time-step factor: the pairs of one effects row."""
+    p = dict(params, run={k: v for k, v in params["run"].items() if k != "dt_factor"})
+    return _pair_key(p)
+
+
 def paired_values(specs):
-    """[(group facts, case, protocol, per-seed D_case/D_exact - 1, yade versions, rot algorithms, seeds)]
-    for every pair key: the seeds where both the case and exact ran, in seed order."""
+    """[:class:`Paired`] for every row: the seeds where both the case and exact ran at one time
+    step, pooled over time-step factors (one pair per seed, the smaller factor first)."""
     by, facts = collect(specs)
+    rows = {}       # (row key, case, protocol) -> {seed: (dt_factor, value, exact record, case record, facts)}
+    for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
+        seeds, dtf = by[pk], facts[pk]["run"]["dt_factor"]
+        for seed, cases in seeds.items():
+            ex = cases.get(("exact", "paired"))
+            if ex is None:
+                continue
+            for (case, protocol), cc in cases.items():
+                slot = rows.setdefault((_row_key(facts[pk]), case, protocol), {}) if case != "exact" else None
+                if slot is not None and seed not in slot:
+                    slot[seed] = (dtf, cc[0] / ex[0] - 1.0, ex[1], cc[1], facts[pk])
     out = []
-    for pk, seeds in by.items():
-        combos = sorted({c for s in seeds.values() for c in s if c[0] != "exact"})
-        for case, protocol in combos:
-            vals, yv, ra, used = [], set(), set(), []
-            for seed, cases in sorted(seeds.items()):
-                ex = cases.get(("exact", "paired"))
-                cc = cases.get((case, protocol))
-                if ex is None or cc is None:
-                    continue
-                vals.append(cc[0] / ex[0] - 1.0)
-                used.append(seed)
-                yv |= {ex[1]["yade_version"], cc[1]["yade_version"]}
-                ra |= {ex[1]["rot_algorithm"], cc[1]["rot_algorithm"]}
-            if vals:
-                out.append((facts[pk], case, protocol, vals, yv, ra, used))
+    for rk in dict.fromkeys(k[0] for k in rows):            # first-seen order of the rows
+        for (_, case, protocol) in sorted(k for k in rows if k[0] == rk):
+            slot = rows[(rk, case, protocol)]
+            used = sorted(slot)
+            recs = [r for s in used for r in slot[s][2:4]]
+            out.append(Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
+                              {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
+                              {slot[s][2]["key"] for s in used}))
     return out
 
 
@@ -92,7 +122,7 @@ def effect_rows(specs, values=None):
     from .estimators import t_interval
 
     rows = []
-    for p, case, protocol, vals, yv, ra, _ in (paired_values(specs) if values is None else values):
+    for p, case, protocol, vals, yv, ra, *_ in (paired_values(specs) if values is None else values):
         shape = p["shape"]["definition"]
         m, lo, hi, se, n = t_interval(vals)
         rho = p["material"]["density"]

@@ -182,17 +182,23 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 workers = workers or os.cpu_count() or 1
                 client, cluster = _client(scheduler, workers)
                 settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
-            futs = {}
-            for i, run in enumerate(todo):
-                f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub + i}",
-                                  pure=False, priority=len(todo) - i, retries=0)
-                futs[f] = run
-                attempted.add(run["key"])
-            n_sub += len(todo)
-            log(f"[study] {len(todo)} runs submitted to {scheduler or f'a LocalCluster of {workers} worker(s)'}")
-            pending = set(futs)
+            futs, pending = {}, set()
+
+            def submit(batch):
+                nonlocal n_sub
+                for run in batch:
+                    f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
+                                      pure=False, priority=_priority(run), retries=0)
+                    futs[f] = run
+                    pending.add(f)
+                    attempted.add(run["key"])
+                    n_sub += 1
+                log(f"[study] {len(batch)} runs submitted to {scheduler or f'a LocalCluster of {workers} worker(s)'}")
+
+            submit(todo)
             sim_total = sum(r["params"]["run"]["t_end"] for r in todo)
             sim_done, last = 0.0, time.time()
+            sequential = any(g.get("target") for g in spec["groups"])
             while pending:
                 try:
                     done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
@@ -220,11 +226,24 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                                    updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
                         log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
                     write_manifest(rdir, [rows[r["key"]] for r in runs])
+                if done and sequential:
+                    # A sequential group whose batch just finished may need more seeds now: plan
+                    # again and queue its new runs at their group's priority, ahead of the later
+                    # groups' queued runs, instead of after every run submitted so far.
+                    runs, _ = _plan(spec, rdir, log)
+                    rows = reconcile(spec, runs, rdir)
+                    new = [r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted]
+                    if max_runs is not None:
+                        new = new[:max(0, max_runs - n_sub)]
+                    write_manifest(rdir, [rows[r["key"]] for r in runs])
+                    if new:
+                        submit(new)
+                        sim_total += sum(r["params"]["run"]["t_end"] for r in new)
                 now = time.time()
                 if pending and now - last >= progress_every:
                     last = now
                     log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
-                                       len(todo) - len(pending), len(todo)))
+                                       len(futs) - len(pending), len(futs)))
         if n_sub:
             log(f"[study] finished {n_sub} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, {n_flag} flagged, "
                 f"{n_fail} failed")
@@ -236,6 +255,12 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
         fcntl.flock(lock, fcntl.LOCK_UN)
         lock.close()
     return rows
+
+
+def _priority(run):
+    """Dask priority of a run (higher first): group by group, seed by seed, in the spec's order, so
+    runs a sequential group adds later still go before the later groups' runs."""
+    return -(int(run["group"]) * 10**7 + int(run["seed"]) * 10)
 
 
 def _progress_line(rdir, futs, pending, sim_done, sim_total, elapsed, n_done, n_all):

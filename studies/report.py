@@ -242,21 +242,24 @@ def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=No
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
     D_spheres/D_exact - 1 of the sphere gas against exact (other runs: independent), with Fieller's
     95 % interval (studies.estimators.fieller_ratio; coverage checked in the tests).  None without
-    two pairs of each, or when both share exact runs (one pair key and common seeds).  ``values``:
+    two pairs of each, or when both share an exact run.  ``values``:
     :func:`studies.effects.paired_values` of ``specs``, if already read."""
     from .estimators import fieller_ratio
 
     values = effects.paired_values(specs) if values is None else values
 
     def best(case):
-        c = [(v, effects._pair_key(p), sd) for p, cs, prot, v, _, _, sd in values
-             if cs == case and prot == "paired" and p["shape"]["definition"].get("kind") == shape
-             and p["shape"]["definition"].get("overlap") == overlap
-             and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition"]
-        return max(c, key=lambda t: len(t[0])) if c else ([], None, [])
+        c = [(pv.values, pv.exact_keys) for pv in values
+             if pv.case == case and pv.protocol == "paired" and _is(pv.facts)]
+        return max(c, key=lambda t: len(t[0])) if c else ([], set())
 
-    (a, ka, sa), (b, kb, sb) = best("uncorrected"), best("spheres")
-    if len(a) < 2 or len(b) < 2 or (ka == kb and set(sa) & set(sb)):   # shared exact runs: not independent
+    def _is(p):
+        return (p["shape"]["definition"].get("kind") == shape
+                and p["shape"]["definition"].get("overlap") == overlap
+                and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition")
+
+    (a, ka), (b, kb) = best("uncorrected"), best("spheres")
+    if len(a) < 2 or len(b) < 2 or ka & kb:   # shared exact runs: not independent
         return None
     th, lo, hi, _, na, nb = fieller_ratio(a, b)
     return {"share": th, "low": lo, "high": hi, "n_num": na, "n_gap": nb, "gap": float(np.mean(b)),

@@ -287,3 +287,77 @@ def test_paper_share_from_independent_runs_covers_the_known_ratio(tmp_path):
         fr, v0 = frames_of(rng, 48, 200.0, 0.5, scale[run["case"]])
         write_record(engine.results_dir(sp2), run, fr, v0, [0.0], 100.0)
     assert len(effects.paired_values([sp2])) == 2 and report.paper_share([sp2]) is None
+
+
+def _scaled_record(rdir, run, base, a):
+    """The record of ``run``: the walkers ``base`` with velocities and displacements scaled by
+    sqrt(a), so its D is exactly a times base's."""
+    fr, v0 = base
+    s = np.float32(math.sqrt(a))
+    return write_record(rdir, run, dict(fr, disp=fr["disp"] * s, vel=fr["vel"] * s), v0, [0.0], 100.0)
+
+
+def test_effects_pool_pairs_across_a_raised_time_step_one_pair_per_seed(tmp_path):
+    """A study that raised run.dt_factor and kept its earlier seeds (run.legacy_dt): seeds 1-3 at
+    0.5, 4-6 at 1.0.  Every pair is made at one dt, and effects.csv pools them into one row.
+    Traps: exact runs of seeds 1-3 at dt 1.0 (another spec, other walkers, D 1.3x) must not be
+    paired with the dt-0.5 mass_only runs, and a second mass_only pair of seed 2 at dt 1.0 (ratio
+    0.90) must not be counted beside its dt-0.5 pair (one pair per seed, the smaller factor)."""
+    sp = spec_for(tmp_path / "a", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(1, 7))}])
+    sp["run"]["legacy_dt"] = {"below_seed": 4, "dt_factor": 0.5}
+    sp["run"]["dt_factor"] = 1.0
+    runs = S.runs(sp)
+    assert {r["seed"]: r["params"]["run"]["dt_factor"] for r in runs} == {1: 0.5, 2: 0.5, 3: 0.5, 4: 1.0, 5: 1.0, 6: 1.0}
+    rng = np.random.default_rng(21)
+    base = {s: frames_of(rng, 48, 250.0, 0.5) for s in range(1, 7)}
+    for run in runs:
+        _scaled_record(engine.results_dir(sp), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.95)
+    other = spec_for(tmp_path / "b", [{"shape": "dimer", "cases": ["exact"], "seeds": [1, 2, 3], "dt_factor": 1.0},
+                                      {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [2], "dt_factor": 1.0}])
+    b2 = frames_of(rng, 48, 250.0, 0.5)
+    for run in S.runs(other):
+        _scaled_record(engine.results_dir(other), run, base[run["seed"]] if run["seed"] != 2 else b2,
+                       (1.3 if run["seed"] != 2 else 1.0) if run["case"] == "exact" else 0.90)
+    (pv,) = effects.paired_values([sp, other])
+    assert pv.case == "mass_only" and pv.seeds == [1, 2, 3, 4, 5, 6]
+    assert pv.values == pytest.approx([-0.05] * 6, abs=1e-6)
+    assert len(pv.exact_keys) == 6 and pv.facts["run"]["dt_factor"] == 0.5
+    (row,) = effects.effect_rows([sp, other])
+    assert row["n_pairs"] == 6 and row["relative"] == pytest.approx(-0.05, abs=1e-6)
+    # without the legacy seeds the dt-1.0 pair of seed 2 is a pair like any other
+    (pv2,) = effects.paired_values([other])
+    assert pv2.seeds == [2] and pv2.values == pytest.approx([-0.10], abs=1e-6)
+
+
+def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_path, monkeypatch):
+    """The driver plans again whenever a run finishes: the seeds a sequential group adds run next,
+    not after every later group's run submitted earlier (so a stopped study holds the first
+    group's answer).  Fake runs (synthetic records) on a 1-worker LocalCluster."""
+    g0 = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2],
+          "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 4}
+    g1 = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(11, 17))}
+    sp = spec_for(tmp_path, [g0, g1])
+    log_path = tmp_path / "order.txt"        # Dask ships a copy of the function: log to a file
+
+    def fake_execute(run, settings):
+        import time
+        time.sleep(0.3)                      # a run lasts longer than submitting the batch
+        rng = np.random.default_rng(run["seed"] * 10 + len(run["case"]))
+        a = 1.0 if run["case"] == "exact" else 1.05 * (1.0 + 0.3 * rng.standard_normal()) ** 2
+        rec = _scaled_record(settings["results_dir"], run, frames_of(rng, 24, 120.0, 0.5), a)
+        with open(log_path, "a") as f:
+            f.write(f"{run['seed']} {run['case']}\n")
+        return {"ok": True, "fail_reasons": [], "energy_drift": rec["checks"]["energy_drift"], "steps_per_s": 1.0,
+                "wall_s": 600.0, "yade_version": "synthetic", "rot_algorithm": "synthetic"}
+
+    monkeypatch.setattr(runner, "execute", fake_execute)
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    order = [int(ln.split()[0]) for ln in log_path.read_text().splitlines()]
+    assert len(order) == 4 * 2 + 6 * 2 and len(rows) == 20 and all(r["status"] == "done" for r in rows.values())
+    assert sorted(s for s in order if s < 10) == [1, 1, 2, 2, 3, 3, 4, 4]
+    g0_at = [i for i, s in enumerate(order) if s < 10]
+    # the extension (seeds 3, 4) ran before the later group's runs, but for the one or two
+    # already on the worker when seed 2 finished; before this fix it ran after all twelve
+    assert max(g0_at) <= 7 + 2, order
+    assert any("max_seeds reached" in ln for ln in lines)

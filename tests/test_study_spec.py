@@ -70,6 +70,10 @@ def _bad(mutate):
     (lambda r: r["groups"][2].update(seeds=[]), "groups[2].seeds: empty"),
     (lambda r: r["groups"][0].update(colour="red"), "groups[0].colour: unknown key"),
     (lambda r: r["groups"][0].update(youngs_modulus=-1e8), "groups[0].youngs_modulus: must be > 0"),
+    (lambda r: r["run"].update(legacy_dt=0.5), "run.legacy_dt: expected a table"),
+    (lambda r: r["run"].update(legacy_dt={"below_seed": 4}), "run.legacy_dt.dt_factor: missing"),
+    (lambda r: r["run"].update(legacy_dt={"below_seed": 0, "dt_factor": 0.5}), "run.legacy_dt.below_seed: must be > 0"),
+    (lambda r: r["run"].update(legacy_dt={"below": 4, "dt_factor": 0.5}), "run.legacy_dt.below: unknown key"),
 ])
 def test_bad_spec_names_the_key(mutate, message):
     assert message in _bad(mutate)
@@ -134,6 +138,31 @@ def test_run_key_depends_on_physics_not_on_labels_or_order():
     r4 = raw()
     r4["groups"][0]["youngs_modulus"] = 1e7          # an override equal to the default: same runs
     assert {r["key"] for r in S.runs(S.validate(r4))} == set(keys.values())
+
+
+def test_legacy_dt_keeps_the_earlier_seeds_runs_and_raises_the_rest():
+    """run.legacy_dt: seeds below ``below_seed`` resolve exactly as the spec did at the old factor
+    (same keys: their finished runs stay valid), later seeds at the new one; both cases of a seed
+    share one time step; a group's own dt_factor wins."""
+    old = raw()
+    old["run"]["dt_factor"] = 0.5
+    old_keys = {(r["name"].rsplit("-", 1)[0]): r["key"] for r in S.runs(S.validate(old))}
+    new = raw()
+    new["run"].update(dt_factor=1.0, legacy_dt={"below_seed": 4, "dt_factor": 0.5})
+    sp = S.validate(new)
+    plain = raw()
+    plain["run"]["dt_factor"] = 1.0
+    plain_keys = {(r["name"].rsplit("-", 1)[0]): r["key"] for r in S.runs(S.validate(plain))}
+    runs = S.runs(sp)
+    assert {r["seed"] for r in runs} >= {1, 4}
+    for r in runs:
+        name = r["name"].rsplit("-", 1)[0]
+        if r["seed"] < 4:
+            assert r["params"]["run"]["dt_factor"] == 0.5 and r["key"] == old_keys[name]
+        else:
+            assert r["params"]["run"]["dt_factor"] == 1.0 and r["key"] == plain_keys[name]
+    g = dict(sp["groups"][0], dt_factor=2.0)
+    assert S.resolve_run(sp, g, "exact", 1)["run"]["dt_factor"] == 2.0
 
 
 def test_run_key_includes_model_yade_and_clumpprops_versions(monkeypatch):
