@@ -184,14 +184,36 @@ def plan(spec, rdir, recs=None):
             seeds += list(range(nxt, nxt + k))
             nxt += k
         extra[gi] = [s for s in seeds if s not in g["seeds"]]
+        st["cpu_hours_per_pair"] = pair_cost(spec, gi, nxt, recs)
+        n_more = None if st.get("n_needed") is None else max(0, st["n_needed"] - st["n"])
+        st["cpu_hours_to_target"] = (None if n_more is None or st["cpu_hours_per_pair"] is None or st["met"]
+                                     else n_more * st["cpu_hours_per_pair"])
         status[gi] = st
     return extra, status
+
+
+def pair_cost(spec, gi, seed, recs):
+    """CPU-hours of one more seed of group gi: per case, the median CPU time of the finished runs of
+    that case (any seed) made at the time step ``seed`` would use; None until each case has one."""
+    g = spec["groups"][gi]
+    total = 0.0
+    for case in g["cases"]:
+        p = S.resolve_run(spec, g, case, seed)
+        cpu = [r.get("cpu_s", r["wall_s"]) for r in recs.values()
+               if r["params"]["case"] == case and r["params"]["protocol"] == p["protocol"]
+               and r["params"]["run"]["dt_factor"] == p["run"]["dt_factor"]]
+        if not cpu:
+            return None
+        total += float(np.median(cpu))
+    return total / 3600.0
 
 
 def describe(gi, g, st):
     hw = st["halfwidth"]
     hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
     proj = "" if st.get("n_needed") is None else f", projected {st['n_needed']} pairs for the target"
+    if st.get("cpu_hours_to_target") is not None:
+        proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more at {st['cpu_hours_per_pair']:.2f} CPU-h a pair)"
     return (f"group {gi} ({g['shape']}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

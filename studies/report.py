@@ -156,7 +156,11 @@ def _answer(sp, g, st, cpu):
         need = st["n_needed"]
         text += (f" Target ±{100 * st['target']:.2f} % not met yet: half-width {100 * hw:.2f} % after "
                  f"{cpu:.1f} CPU-hours for the whole spec; the spread so far projects "
-                 f"{need if need is not None else 'n/a'} pairs (state: {st['state']}).")
+                 f"{need if need is not None else 'n/a'} pairs")
+        if st.get("cpu_hours_to_target") is not None:
+            text += (f", about {st['cpu_hours_to_target']:.0f} CPU-hours more at the median cost of "
+                     f"{st['cpu_hours_per_pair']:.2f} CPU-hours a pair")
+        text += f" (state: {st['state']})."
     return text
 
 

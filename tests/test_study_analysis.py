@@ -204,6 +204,10 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     sp, rdir = _sequential(tmp_path, noise_sd=0.3)        # large scatter: 2 % is far away
     extra, status = design.plan(sp, rdir)
     assert extra[0] == [13, 14] and status[0]["state"] == "running" and status[0]["n_needed"] > 20
+    # the projection in CPU-hours: 2 runs of 600 s a pair (the records' wall time, no cpu_s)
+    assert status[0]["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600)
+    assert status[0]["cpu_hours_to_target"] == pytest.approx((status[0]["n_needed"] - 12) * 2 * 600 / 3600)
+    assert "CPU-h more at 0.33 CPU-h a pair" in design.describe(0, sp["groups"][0], status[0])
     runs = S.runs(sp, extra_seeds=extra)
     assert {r["seed"] for r in runs} == set(range(1, 15))  # the driver will run seeds 13 and 14
     sp2, rdir2 = _sequential(tmp_path / "b", noise_sd=0.3, budget=1.0)   # 24 runs x 600 s = 4 CPU-h > 1
