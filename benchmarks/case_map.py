@@ -93,6 +93,24 @@ def case_input(base, shape, case, protocol):
     return inp, kt_ratio * m_e / m_c
 
 
+def relaxation_time_n(x, q, kT, m, area):
+    """The first Chapman-Enskog velocity relaxation time of a body in a dilute gas of its kind, times
+    the number density n: (tau n, its standard error), s m^-3.
+
+    A body's velocity autocorrelation decays as exp(-t/tau) at short times, 1/tau = n A <g> <x q> / 3
+    (the collision rate n A <g> over the impact-parameter disc of area A (m^2), <g> = sqrt(16 kT /
+    (pi m)) the mean relative speed of two bodies of mass m (kg) at temperature kT (J), x = gamma^2
+    and q = 1 - g'.g/g^2 per collision course drawn with the collision-flux weight; D = kT tau / m
+    recovers [D]_1 above).  Hard spheres of diameter sigma with A = pi sigma^2 have <x q> = 2 and
+    tau n = (m / kT) 3 / (8 sigma^2) sqrt(kT / (pi m)).  The gas study's records measure tau from
+    the first seconds of their velocity autocorrelation (studies.estimators.initial_decay_time)."""
+    a = np.asarray(x) * np.asarray(q)
+    mean = float(a.mean())
+    se = float(a.std(ddof=1) / math.sqrt(len(a)))
+    tn = 3.0 / (area * math.sqrt(16.0 * kT / (math.pi * m)) * mean)
+    return tn, tn * se / mean
+
+
 def ratio(x, q_e, q_c, kt_m_ratio, full=False):
     """D_case/D_exact - 1 = sqrt(kt_m_ratio) <x q_e>/<x q_c> - 1 and its standard error over the
     collisions (delta method; the collisions are the independent units, paired across cases).
@@ -175,11 +193,20 @@ def main():
             r["minus_mass_scaled_se"] = float(dd.std(ddof=1) / math.sqrt(len(dd)))
             print(f"{r['case']:>14} minus mass_scaled (the k² part): {100 * r['minus_mass_scaled']:+.2f} % "
                   f"± {100 * r['minus_mass_scaled_se']:.2f} % (se)")
+    area = math.pi * (2.0 * base["bounding_radius"]) ** 2       # make_pairs' impact-parameter disc
+    relax = {}
+    for (case, prot), (inp, _) in runs.items():
+        relax[f"{case}/{prot}"] = relaxation_time_n(x[ok], res[(case, prot)]["q"][ok], inp["kT"],
+                                                    inp["body"]["mass"], area)
+    print("first Chapman-Enskog velocity relaxation time x number density (s m^-3): "
+          + ", ".join(f"{k} {v[0]:.2f} ± {v[1]:.2f}" for k, v in relax.items()))
     print(f"\n[total] CPU of the YADE runs {cpu / 60:.1f} min, wall {(time.time() - t0) / 60:.1f} min")
     if not a.quick:
         res_json = {"argv": sys.argv[1:], "shape": shape, "material": bt.MATERIAL, "pairs": a.pairs,
                     "pairs_used": int(ok.sum()), "seed": a.seed, "dt_factor": a.factor, "spin_pairing": "own",
-                    "rows": rows, "cpu_s": cpu, "date": time.strftime("%Y-%m-%d")}
+                    "energy_per_particle": bt.ENERGY, "rows": rows,
+                    "relaxation_time_n": {k: {"value": v[0], "se": v[1]} for k, v in relax.items()},
+                    "cpu_s": cpu, "date": time.strftime("%Y-%m-%d")}
         os.makedirs(os.path.dirname(a.out), exist_ok=True)
         with open(a.out, "w") as f:
             json.dump(res_json, f, indent=1)

@@ -86,10 +86,11 @@ def _row_key(params):
     return _pair_key(p)
 
 
-def paired_values(specs):
+def paired_values(specs, collected=None):
     """[:class:`Paired`] for every row: the seeds where both the case and exact ran at one time
-    step, pooled over time-step factors (one pair per seed, the smaller factor first)."""
-    by, facts = collect(specs)
+    step, pooled over time-step factors (one pair per seed, the smaller factor first).
+    ``collected``: :func:`collect` of ``specs``, if already read."""
+    by, facts = collect(specs) if collected is None else collected
     rows = {}       # (row key, case, protocol) -> {seed: (dt_factor, value, exact record, case record, facts)}
     for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
         seeds, dtf = by[pk], facts[pk]["run"]["dt_factor"]

@@ -204,6 +204,26 @@ def correlation_time(lag_s, vacf):
     return float(lag[k - 1] + (r0 - math.exp(-1.0)) / (r0 - r1) * (lag[k] - lag[k - 1]))
 
 
+def initial_decay_time(lag_s, vacf, t_fit=2.0):
+    """Velocity relaxation time tau (s) from the first ``t_fit`` seconds of a VACF: the least-squares
+    slope of ln(C(t)/C(0)) = -t/tau through the origin over 0 < t <= t_fit.
+
+    In a dilute gas 1/tau is the collision rate times the mean fractional momentum loss per
+    collision, set by binary collisions alone (the first Chapman-Enskog approximation), so it
+    compares a gas with a collision map (benchmarks/case_map.py, relaxation_time_n) without any
+    model of the VACF's tail.  Needs C > 0 on the fit lags and at least 2 of them."""
+    lag, c = _check_lags(lag_s, vacf)
+    if c[0] <= 0:
+        raise ValueError("VACF at lag 0 must be > 0")
+    sel = (lag > 0) & (lag <= t_fit + 1e-9)
+    if sel.sum() < 2:
+        raise ValueError(f"fewer than 2 lags in (0, {t_fit:g}] s")
+    if np.any(c[sel] <= 0):
+        raise ValueError(f"VACF not positive within the first {t_fit:g} s")
+    t, y = lag[sel], np.log(c[sel] / c[0])
+    return float(-np.dot(t, t) / np.dot(t, y))
+
+
 def _fit_exponential(t, y, tau0):
     """Least-squares A exp(-t/tau) to (t, y) (unweighted, in C itself, not its log).
 

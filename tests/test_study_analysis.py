@@ -365,3 +365,45 @@ def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_pat
     # already on the worker when seed 2 finished; before this fix it ran after all twelve
     assert max(g0_at) <= 7 + 2, order
     assert any("max_seeds reached" in ln for ln in lines)
+
+
+def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
+    """studies.rates on OU walkers with known tau (exact 25 s, uncorrected 27.5 s with 10 % smaller
+    <v^2>): the gas tau of each case within its interval of the truth, gas / map - 1 ~ 0 against a
+    map that predicts the truth, and the D ratio from the first seconds (0.9 x 1.1 - 1 = -1 %) within
+    its paired interval.  Runs from the paper's zero-spin start are left out."""
+    from studies import rates
+
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 7))}],
+                  start="equipartition")
+    rng = np.random.default_rng(41)
+    truth = {"exact": (25.0, 1.0), "uncorrected": (27.5, 0.9)}          # tau, <v^2> scale
+    for run in S.runs(sp):
+        tau, v2 = truth[run["case"]]
+        vel, pos = est.simulate_ou(rng, 216, 1201, 0.25, tau, SIGMA_V * math.sqrt(v2))
+        t = np.arange(1201) * 0.25
+        e_t = np.sum(vel ** 2, axis=(1, 2))
+        fr = {"t": t, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32), "e_trans": e_t,
+              "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(1201), "momentum": np.zeros((1201, 3))}
+        write_record(engine.results_dir(sp), run, fr, vel[0], [0.0], 60.0)
+    n = sp["gas"]["n_particles"] / 10.0 ** 3                               # write_record's box: 10 m
+    m = {"file": "map.json", "shape": {"kind": "dimer", "overlap": 0.5}, "material": dict(sp["material"]),
+         "energy_per_particle": sp["gas"]["energy_per_particle"],
+         "relaxation_time_n": {"exact/paired": {"value": 25.0 * n, "se": 0.1 * n},
+                               "uncorrected/paired": {"value": 27.5 * n, "se": 0.1 * n}},
+         "rows": [{"case": "uncorrected", "protocol": "paired", "relative": 0.9 * 1.1 - 1.0, "se": 0.001}]}
+    collected = effects.collect([sp])
+    rows = {r["case"]: r for r in rates.rows(collected, [m])}
+    for case, (tau, _) in truth.items():
+        r = rows[case]
+        assert r["n_seeds"] == 6 and r["gas_ci_low"] <= tau <= r["gas_ci_high"], r
+        assert r["map_tau"] == pytest.approx(tau) and abs(r["relative"]) < 0.02
+    (rr,) = rates.ratio_rows(collected, [m])
+    assert rr["case"] == "uncorrected" and rr["n_pairs"] == 6
+    assert rr["gas_ci_low"] <= 0.9 * 1.1 - 1.0 <= rr["gas_ci_high"], rr
+    assert rr["map_relative"] == pytest.approx(-0.01)
+    sp0 = spec_for(tmp_path / "z", [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], start="zero_spin")
+    for run in S.runs(sp0):
+        fr, v0 = frames_of(rng, 24, 250.0, 0.5)
+        write_record(engine.results_dir(sp0), run, fr, v0, [0.0], 100.0)
+    assert rates.rows(effects.collect([sp0]), [m]) == []

@@ -1,0 +1,121 @@
+"""The gas's velocity relaxation time against the collision map's: where a gas and the binary
+collisions behind the map (benchmarks/case_map.py) agree, and where not (issue 12).
+
+In a dilute gas a body's velocity autocorrelation starts as exp(-t/tau), and 1/tau (the collision
+rate times the mean fractional momentum loss per collision) is set by binary collisions alone: it
+is the first Chapman-Enskog approximation, which the collision map computes from YADE collisions
+as tau x n (``relaxation_time_n``, s m^-3).  A run record gives tau from the first seconds of its
+velocity autocorrelation (:func:`studies.estimators.initial_decay_time`) and n = N / L^3.  The
+comparison needs no model of the VACF's tail, so it tests the collisions themselves, case by case:
+a D ratio that disagrees with its map can be traced to the case whose collision rate disagrees.
+
+Pure functions of run records and map files; no YADE, no Dask.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import estimators as est
+
+T_FIT = 2.0     # s of VACF fitted: 0.05-0.08 tau for these gases, 8 frames at 0.25 s
+
+
+def run_tau(rec, t_fit=T_FIT):
+    """(tau (s) from the record's first analysis window, number density n (m^-3), C(0) = <v^2>
+    (m^2/s^2)).  C(0) tau / 3 is the run's D if its VACF is a single exponential."""
+    w = rec["windows"][0]
+    c = np.asarray(w["vacf"])
+    lag = np.arange(len(c)) * w["frame_interval"]
+    n = rec["params"]["gas"]["n_particles"] / rec["box_length"] ** 3
+    return est.initial_decay_time(lag, c, t_fit), n, float(c[0])
+
+
+def _map_for(maps, p):
+    sh = p["shape"]["definition"]
+    for m in maps:
+        if ("relaxation_time_n" in m and m["shape"].get("kind") == sh.get("kind")
+                and m["shape"].get("overlap") == sh.get("overlap")
+                and float(m["material"]["youngs_modulus"]) == float(p["material"]["youngs_modulus"])
+                and float(m["material"]["density"]) == float(p["material"]["density"])
+                and m.get("energy_per_particle") == p["gas"]["energy_per_particle"]):
+            return m
+    return None
+
+
+def _per_seed(collected, maps):
+    """{(map file, case, protocol): {seed: {dt factor: (tau, n, C(0))}}} of the runs started in
+    equilibrium that have a map."""
+    by, facts = collected
+    per = {}
+    for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
+        p = facts[pk]
+        if p["gas"].get("start") != "equipartition":
+            continue
+        m = _map_for(maps, p)
+        if m is None:
+            continue
+        for seed, cases in by[pk].items():
+            for (case, protocol), (_, rec) in cases.items():
+                if f"{case}/{protocol}" not in m["relaxation_time_n"]:
+                    continue
+                per.setdefault((m["file"], case, protocol), {}).setdefault(seed, {})[p["run"]["dt_factor"]] = \
+                    run_tau(rec)
+    return per
+
+
+def rows(collected, maps):
+    """One row per map x (case, protocol) with gas runs started in equilibrium: the map's tau and
+    its standard error, the gas's mean tau over seeds with a 95 % Student-t interval (one run per
+    seed: the smallest dt factor where a seed ran at several), and gas / map - 1."""
+    per = _per_seed(collected, maps)
+    out = []
+    by_file = {m["file"]: m for m in maps}
+    for (f, case, protocol), seeds in per.items():
+        m = by_file[f]
+        first = [v[min(v)] for v in seeds.values()]       # one run per seed: the smallest dt factor
+        taus = [v[0] for v in first]
+        ns = {round(v[1], 12) for v in first}
+        if len(ns) != 1:
+            raise ValueError(f"{f} {case}/{protocol}: gas runs at different number densities {sorted(ns)}")
+        n = ns.pop()
+        rt = m["relaxation_time_n"][f"{case}/{protocol}"]
+        mean, lo, hi, _, k = est.t_interval(taus)
+        out.append({"shape": m["shape"]["kind"], "overlap": m["shape"].get("overlap"),
+                    "youngs_modulus": m["material"]["youngs_modulus"], "case": case, "protocol": protocol,
+                    "map_tau": rt["value"] / n, "map_tau_se": rt["se"] / n, "gas_tau": mean, "gas_ci_low": lo,
+                    "gas_ci_high": hi, "n_seeds": k, "relative": mean / (rt["value"] / n) - 1.0, "file": f})
+    out.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["youngs_modulus"], r["case"] != "exact", r["case"],
+                            r["protocol"]))
+    return out
+
+
+def ratio_rows(collected, maps):
+    """One row per map x (case, protocol) other than exact: D_case/D_exact - 1 from the first seconds
+    of the VACF, D_init = C(0) tau / 3 per run, paired by seed (both runs at one dt; 95 % Student-t
+    interval over seeds), next to the map's prediction (``rows`` of the map file, ± 1.96 se paired
+    over its collisions).  Where the gas's VACF is one exponential, D_init is its Green-Kubo D, and
+    a disagreement with the map is a disagreement of the collisions themselves."""
+    per = _per_seed(collected, maps)
+    by_file = {m["file"]: m for m in maps}
+    out = []
+    for (f, case, protocol), seeds in per.items():
+        if case == "exact":
+            continue
+        ex = per.get((f, "exact", "paired"), {})
+        vals = []
+        for s in sorted(seeds):
+            common = sorted(set(seeds[s]) & set(ex.get(s, {})))    # a pair at one dt: the smallest
+            if common:
+                (tc, _, cc), (te, _, ce) = seeds[s][common[0]], ex[s][common[0]]
+                vals.append(cc * tc / (ce * te) - 1.0)
+        mrow = next((r for r in by_file[f]["rows"] if r["case"] == case and r["protocol"] == protocol), None)
+        if not vals or mrow is None:
+            continue
+        mean, lo, hi, _, k = est.t_interval(vals)
+        m = by_file[f]
+        out.append({"shape": m["shape"]["kind"], "overlap": m["shape"].get("overlap"),
+                    "youngs_modulus": m["material"]["youngs_modulus"], "case": case, "protocol": protocol,
+                    "map_relative": mrow["relative"], "map_se": mrow["se"], "gas_relative": mean,
+                    "gas_ci_low": lo, "gas_ci_high": hi, "n_pairs": k, "file": f})
+    out.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["youngs_modulus"], r["case"], r["protocol"]))
+    return out
