@@ -22,6 +22,24 @@ import numpy as np
 
 CASE_COLORS = {"uncorrected": "tab:red", "mass_only": "tab:green", "inertia_only": "tab:orange"}
 SHAPE_MARKERS = {"dimer": "o", "trimer_linear": "s", "trimer_triangle": "^", "tetrahedron": "D"}
+DIMER_MARKERS = {"0.25": "v", "0.5": "o", "0.75": "P"}     # the paper's dimer (D/d_s = 0.5) keeps "o"
+
+
+def _overlap_str(x):
+    """An overlap ratio D/d_s as the short string the tables use ('0.5'); '' when absent."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return ""
+    return "" if v != v else f"{v:g}"
+
+
+def _marker(shape, ov):
+    return DIMER_MARKERS.get(ov, "o") if shape == "dimer" else SHAPE_MARKERS.get(shape, "o")
+
+
+def _shape_label(shape, ov):
+    return f"{shape} D/d_s = {ov}" if shape == "dimer" and ov else shape
 
 
 def _read(path):
@@ -76,9 +94,10 @@ def plot_all(results, log=print):
         eff = eff[(eff["case"] != "spheres") & (eff["n_pairs"] >= 2)]   # one pair: no interval, no point
     if eff is not None and len(eff):
         fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
-        for (shape, prot, case), g in eff.groupby(["shape", "protocol", "case"]):
-            kw = dict(color=CASE_COLORS.get(case, "gray"), fmt=SHAPE_MARKERS.get(shape, "o"),
-                      mfc="none" if prot != "paired" else None, label=f"{shape}, {case}, {prot}")
+        ov_key = eff["overlap"].map(_overlap_str)
+        for (shape, ov, prot, case), g in eff.groupby([eff["shape"], ov_key, eff["protocol"], eff["case"]]):
+            kw = dict(color=CASE_COLORS.get(case, "gray"), fmt=_marker(shape, ov),
+                      mfc="none" if prot != "paired" else None, label=f"{_shape_label(shape, ov)}, {case}, {prot}")
             _bars(axes[0], 100 * g["mass_error"].to_numpy(), g, **kw)
             _bars(axes[1], 100 * g["k2_error"].to_numpy(), g, **dict(kw, label=None))
         maps = read_collision_maps(results)

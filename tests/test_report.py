@@ -181,3 +181,27 @@ def test_plain_words_from_the_tables_maps_and_share():
     text = "\n".join(report.plain_words([], [cmap(1e7, 0.0065, 0.0067)], None))
     assert "With the same kinetic energy for every case: predicted -7.50 %" in text and ": ;" not in text
     assert report.plain_words([], [], None) == []
+
+
+def test_effect_figure_tells_dimer_overlaps_apart(tmp_path, monkeypatch):
+    """Dimers at two overlaps are two legend entries with two markers, not one merged series."""
+    from studies import effects_plots
+    cols = "shape,overlap,protocol,youngs_modulus,case,n_pairs,relative,relative_ci_low,relative_ci_high,mass_error,k2_error,yade_version,rot_algorithm\n"
+    rows = ["dimer,0.25,equal_energy,1e7,uncorrected,3,-0.17,-0.24,-0.10,0.463,-0.127,2025.2,isotropic",
+            "dimer,0.5,equal_energy,1e7,uncorrected,6,-0.07,-0.09,-0.05,0.185,-0.105,2023.02a,isotropic"]
+    (tmp_path / "effects.csv").write_text(cols + "\n".join(rows) + "\n")
+    saved = {}
+    real_save = effects_plots._save
+
+    def spy(fig, results, name):
+        ax = fig.axes[0]
+        saved[name] = ([t.get_text() for t in ax.get_legend().get_texts()],
+                       [c.lines[0].get_marker() for c in ax.containers])
+        return real_save(fig, results, name)
+
+    monkeypatch.setattr(effects_plots, "_save", spy)
+    assert effects_plots.plot_all(str(tmp_path), log=lambda s: None)[0] == "effects.png"
+    labels, markers = saved["effects.png"]
+    assert "dimer D/d_s = 0.25, uncorrected, equal_energy" in labels
+    assert "dimer D/d_s = 0.5, uncorrected, equal_energy" in labels
+    assert len(set(markers)) == 2
