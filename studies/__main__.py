@@ -63,7 +63,7 @@ def main(argv=None):
         engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
                      allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
     if a.command == "status":
-        rows = engine.reconcile(spec, S.runs(spec), engine.results_dir(spec))
+        rows = engine.status(spec)
         from collections import Counter
         c = Counter(r["status"] for r in rows.values())
         print(f"{spec['study']['name']}: {len(rows)} runs: " + ", ".join(f"{k} {v}" for k, v in sorted(c.items())))

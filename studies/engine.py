@@ -132,6 +132,15 @@ def _plan(spec, rdir, log):
     return S.runs(spec, extra_seeds=extra), status
 
 
+def status(spec, log=print):
+    """Manifest rows (dict by key) of every run the spec asks for now, a sequential group's added
+    seeds included (each group's state is logged), as recorded under its results directory.
+    Reads only; writes nothing."""
+    rdir = results_dir(spec)
+    runs, _ = _plan(spec, rdir, log)
+    return reconcile(spec, runs, rdir)
+
+
 def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow_dirty=False, max_runs=None,
           progress_every=30.0, log=print, scratch=None, timeout=None):
     """Run every missing run of ``spec`` (sequential groups: until their targets are met, their
@@ -154,6 +163,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                          "runs must come from a committed revision (commit, use a clean `git worktree`, "
                          "or pass --allow-dirty for a throw-away study)")
     max_att = spec["study"]["max_attempts"]
+    schedule = spec["study"]["schedule"]
     client = cluster = None
     t_start = time.time()
     n_ok = n_flag = n_fail = n_sub = 0
@@ -166,6 +176,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     and int(rows[r["key"]]["attempts"]) < max_att and r["key"] not in attempted]
             given_up = [r for r in runs if rows[r["key"]]["status"] == "failed"
                         and int(rows[r["key"]]["attempts"]) >= max_att]
+            todo.sort(key=lambda r: -_priority(r, schedule))     # --max-runs keeps the first in the schedule
             if max_runs is not None:
                 todo = todo[:max(0, max_runs - n_sub)]
             write_manifest(rdir, [rows[r["key"]] for r in runs])
@@ -188,7 +199,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 nonlocal n_sub
                 for run in batch:
                     f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
-                                      pure=False, priority=_priority(run), retries=0)
+                                      pure=False, priority=_priority(run, schedule), retries=0)
                     futs[f] = run
                     pending.add(f)
                     attempted.add(run["key"])
@@ -232,7 +243,8 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     # groups' queued runs, instead of after every run submitted so far.
                     runs, _ = _plan(spec, rdir, log)
                     rows = reconcile(spec, runs, rdir)
-                    new = [r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted]
+                    new = sorted((r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted),
+                                 key=lambda r: -_priority(r, schedule))
                     if max_runs is not None:
                         new = new[:max(0, max_runs - n_sub)]
                     write_manifest(rdir, [rows[r["key"]] for r in runs])
@@ -257,9 +269,16 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     return rows
 
 
-def _priority(run):
-    """Dask priority of a run (higher first): group by group, seed by seed, in the spec's order, so
-    runs a sequential group adds later still go before the later groups' runs."""
+def _priority(run, schedule="in_order"):
+    """Dask priority of a run (higher first).
+
+    ``in_order``: group by group, seed by seed, in the spec's order, so runs a sequential group adds
+    later still go before the later groups' runs.  ``round_robin``: the k-th seed of every group
+    (``run["rank"]``, its place in the group's seed list) before any group's (k+1)-th, groups in the
+    spec's order within a round.
+    """
+    if schedule == "round_robin":
+        return -(int(run["rank"]) * 10**5 + int(run["group"]))
     return -(int(run["group"]) * 10**7 + int(run["seed"]) * 10)
 
 

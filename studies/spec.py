@@ -44,7 +44,8 @@ _NUM = (int, float)
 SCHEMA = {
     "study": {"name": (str, True, None, None), "description": (str, False, "", None),
               "results": (str, True, None, None), "yade": (str, True, None, "yade"),
-              "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos")},
+              "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos"),
+              "schedule": (str, False, "in_order", "schedule")},
     "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
                  "poisson": (_NUM, True, None, "poisson")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
@@ -74,6 +75,12 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
+# [study] schedule: the order runs are queued in.  "in_order": group by group, seed by seed, so a
+# sequential group's added seeds go before every later group's runs (the spec's groups in order of
+# importance).  "round_robin": every group's k-th seed before any group's (k+1)-th, so a study
+# stopped by its budget or a session's end holds an interval for every group (independent questions
+# of similar importance).  Not part of any run key.
+SCHEDULES = ("in_order", "round_robin")
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
              "start": "gas", "energy_per_particle": "gas"}
 
@@ -109,6 +116,8 @@ def _check_value(where, v, typ, check):
         raise SpecError(f"{where}: must be one of {', '.join(gm.PROTOCOLS)}, got {v!r}")
     if check == "kind" and v not in shp.KINDS:
         raise SpecError(f"{where}: must be one of {', '.join(shp.KINDS)}, got {v!r}")
+    if check == "schedule" and v not in SCHEDULES:
+        raise SpecError(f"{where}: must be one of {', '.join(SCHEDULES)}, got {v!r}")
     if check == "smass" and v not in ("exact", "density"):
         raise SpecError(f"{where}: must be 'exact' (the exact clump mass) or 'density', got {v!r}")
     if check == "diameter":
@@ -320,13 +329,14 @@ def run_key(params):
 def runs(spec, extra_seeds=None):
     """Every run of a spec in priority order (group by group, seed by seed), without duplicates.
 
-    Returns dicts ``{key, name, group, shape, case, protocol, seed, params}``.  ``extra_seeds``
-    maps a group index to seeds added by sequential design.
+    Returns dicts ``{key, name, group, rank, shape, case, protocol, seed, params}``; ``rank`` is the
+    seed's place in its group's list (0 for the first seed), which the driver's ``round_robin``
+    schedule queues by.  ``extra_seeds`` maps a group index to seeds added by sequential design.
     """
     out, seen = [], set()
     for gi, g in enumerate(spec["groups"]):
         seeds = list(g["seeds"]) + list((extra_seeds or {}).get(gi, []))
-        for seed in seeds:
+        for rank, seed in enumerate(seeds):
             for case in g["cases"]:
                 params = resolve_run(spec, g, case, seed)
                 key = run_key(params)
@@ -335,7 +345,7 @@ def runs(spec, extra_seeds=None):
                 seen.add(key)
                 label = g.get("label") or g["shape"]
                 out.append({"key": key, "name": f"{label}-{case}-{params['protocol']}-s{seed}-{key[:8]}",
-                            "group": gi, "shape": g["shape"], "case": case, "protocol": params["protocol"],
+                            "group": gi, "rank": rank, "shape": g["shape"], "case": case, "protocol": params["protocol"],
                             "seed": int(seed), "params": params})
     return out
 

@@ -50,9 +50,11 @@ def write_record(rdir, run, frames, v0, cuts, max_lag, rot_dof=2, wall_s=600.0):
     return rec
 
 
-def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None):
+def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None, schedule=None):
     with open(os.path.join(S.SPEC_DIR, "dimer_paired.toml"), "rb") as f:
         r = tomllib.load(f)
+    if schedule is not None:
+        r["study"]["schedule"] = schedule
     if start is not None:
         r["gas"]["start"] = start
     r["study"]["results"] = str(tmp / "results")
@@ -365,6 +367,45 @@ def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_pat
     # already on the worker when seed 2 finished; before this fix it ran after all twelve
     assert max(g0_at) <= 7 + 2, order
     assert any("max_seeds reached" in ln for ln in lines)
+    # `python -m studies status` counts the added seeds' runs too (before: the 16 of the listed seeds)
+    st = engine.status(sp, log=lines.append)
+    assert len(st) == 20 and all(r["status"] == "done" for r in st.values())
+
+
+def _fake_execute_logging_to(log_path):
+    def fake_execute(run, settings):
+        import time
+        time.sleep(0.3)                      # a run lasts longer than submitting the batch
+        rng = np.random.default_rng(run["seed"] * 10 + len(run["case"]))
+        a = 1.0 if run["case"] == "exact" else 1.05 * (1.0 + 0.3 * rng.standard_normal()) ** 2
+        rec = _scaled_record(settings["results_dir"], run, frames_of(rng, 24, 120.0, 0.5), a)
+        with open(log_path, "a") as f:
+            f.write(f"{run['seed']} {run['case']}\n")
+        return {"ok": True, "fail_reasons": [], "energy_drift": rec["checks"]["energy_drift"], "steps_per_s": 1.0,
+                "wall_s": 600.0, "yade_version": "synthetic", "rot_algorithm": "synthetic"}
+    return fake_execute
+
+
+def test_round_robin_schedule_gives_every_group_its_seeds_before_extending_one(tmp_path, monkeypatch):
+    """``schedule = "round_robin"``: a sequential group that keeps adding seeds (target out of reach)
+    does not starve a later group; the later group's four seeds all run before the first group's
+    fifth and sixth (rank 4, 5), but for a run already on the worker.  Under ``in_order`` the later
+    group ran last (the test above)."""
+    g0 = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2],
+          "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 6}
+    g1 = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(11, 15))}
+    sp = spec_for(tmp_path, [g0, g1], schedule="round_robin")
+    assert sp["study"]["schedule"] == "round_robin"
+    log_path = tmp_path / "order.txt"
+    monkeypatch.setattr(runner, "execute", _fake_execute_logging_to(log_path))
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None, progress_every=1.0)
+    order = [int(ln.split()[0]) for ln in log_path.read_text().splitlines()]
+    assert len(order) == 6 * 2 + 4 * 2 and all(r["status"] == "done" for r in rows.values())
+    last_g1 = max(i for i, s in enumerate(order) if s >= 10)
+    first_late_g0 = min(i for i, s in enumerate(order) if s in (5, 6))
+    assert last_g1 < first_late_g0 + 2, order
+    # and the first round: seed 1 and seed 11 before anything of rank 2 or later
+    assert max(order.index(1), order.index(11)) < min(order.index(s) for s in (3, 13)), order
 
 
 def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):

@@ -74,6 +74,7 @@ def _bad(mutate):
     (lambda r: r["run"].update(legacy_dt={"below_seed": 4}), "run.legacy_dt.dt_factor: missing"),
     (lambda r: r["run"].update(legacy_dt={"below_seed": 0, "dt_factor": 0.5}), "run.legacy_dt.below_seed: must be > 0"),
     (lambda r: r["run"].update(legacy_dt={"below": 4, "dt_factor": 0.5}), "run.legacy_dt.below: unknown key"),
+    (lambda r: r["study"].update(schedule="breadth_first"), "study.schedule: must be one of in_order, round_robin"),
 ])
 def test_bad_spec_names_the_key(mutate, message):
     assert message in _bad(mutate)
@@ -131,6 +132,7 @@ def test_run_key_depends_on_physics_not_on_labels_or_order():
     r2["groups"] = list(reversed(r2["groups"]))
     r2["study"]["description"] = "another text"
     r2["analysis"]["fit_lo"] = 100.0
+    r2["study"]["schedule"] = "round_robin"           # the queue order is not physics
     assert {r["name"]: r["key"] for r in S.runs(S.validate(r2))} == keys
     r3 = raw()
     r3["material"]["youngs_modulus"] = 2e7
