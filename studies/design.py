@@ -186,26 +186,68 @@ def plan(spec, rdir, recs=None):
         extra[gi] = [s for s in seeds if s not in g["seeds"]]
         st["cpu_hours_per_pair"] = pair_cost(spec, gi, nxt, recs)
         n_more = None if st.get("n_needed") is None else max(0, st["n_needed"] - st["n"])
-        st["cpu_hours_to_target"] = (None if n_more is None or st["cpu_hours_per_pair"] is None or st["met"]
-                                     else n_more * st["cpu_hours_per_pair"])
+        if n_more is None or st["met"]:
+            st["cpu_hours_to_target"] = None
+        else:   # the group's seeds without a pair yet, then the next integers, until n_more of them
+            st["cpu_hours_to_target"] = _cost_to_target(spec, gi, seeds, {sd for sd, _ in pairs}, nxt, n_more, recs)
         status[gi] = st
     return extra, status
+
+
+def _run_cost(p, recs):
+    """Median CPU-hours of the finished runs of the case, protocol and time step of resolved run
+    parameters ``p`` (any seed).  Without a run at that time step, the runs at other factors, each
+    scaled by its factor over p's (the number of steps goes as 1/dt); None while there is none."""
+    same = [r for r in recs.values() if r["params"]["case"] == p["case"] and r["params"]["protocol"] == p["protocol"]]
+    f = p["run"]["dt_factor"]
+    cpu = [r.get("cpu_s", r["wall_s"]) for r in same if r["params"]["run"]["dt_factor"] == f]
+    if not cpu:
+        cpu = [r.get("cpu_s", r["wall_s"]) * r["params"]["run"]["dt_factor"] / f for r in same]
+    return float(np.median(cpu)) / 3600.0 if cpu else None
 
 
 def pair_cost(spec, gi, seed, recs):
     """CPU-hours of one more seed of group gi: per case, the median CPU time of the finished runs of
     that case (any seed) made at the time step ``seed`` would use; None until each case has one."""
     g = spec["groups"][gi]
+    costs = [_run_cost(S.resolve_run(spec, g, case, seed), recs) for case in g["cases"]]
+    return None if any(c is None for c in costs) else float(sum(costs))
+
+
+def _cost_to_target(spec, gi, seeds, paired, nxt, n_more, recs):
+    """CPU-hours for n_more more pairs of group gi: its listed seeds without a pair first, then the
+    next integers from ``nxt``.  Seeds past every recorded seed and past the legacy time-step bound
+    all cost the same, so they are priced once (n_more can be 1e5 for a far target)."""
+    todo = [sd for sd in seeds if sd not in paired][:n_more]
+    rest = n_more - len(todo)
+    legacy = (spec["run"].get("legacy_dt") or {}).get("below_seed", 0)
+    last = max([int(r["params"]["seed"]) for r in recs.values()] + [legacy, nxt - 1])
+    explicit = list(range(nxt, min(nxt + rest, last + 1)))
+    total = cost_of_seeds(spec, gi, todo + explicit, recs)
+    n_far = rest - len(explicit)
+    if total is None or n_far <= 0:
+        return total
+    per = cost_of_seeds(spec, gi, [max(last + 1, nxt)], recs)
+    return None if per is None else total + n_far * per
+
+
+def cost_of_seeds(spec, gi, seeds, recs):
+    """CPU-hours still to spend for group gi's pairs at ``seeds``: the median cost of each run not
+    finished yet.  A run already made (by this group or by another group that shares it, such as
+    the ``exact`` run of a seed) costs nothing, so a group comparing one more case with existing
+    exact runs costs one run a pair, not two.  None while some needed run's cost is unknown."""
+    g = spec["groups"][gi]
     total = 0.0
-    for case in g["cases"]:
-        p = S.resolve_run(spec, g, case, seed)
-        cpu = [r.get("cpu_s", r["wall_s"]) for r in recs.values()
-               if r["params"]["case"] == case and r["params"]["protocol"] == p["protocol"]
-               and r["params"]["run"]["dt_factor"] == p["run"]["dt_factor"]]
-        if not cpu:
-            return None
-        total += float(np.median(cpu))
-    return total / 3600.0
+    for seed in seeds:
+        for case in g["cases"]:
+            p = S.resolve_run(spec, g, case, seed)
+            if S.run_key(p) in recs:
+                continue
+            c = _run_cost(p, recs)
+            if c is None:
+                return None
+            total += c
+    return total
 
 
 def describe(gi, g, st):
@@ -213,7 +255,8 @@ def describe(gi, g, st):
     hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
     proj = "" if st.get("n_needed") is None else f", projected {st['n_needed']} pairs for the target"
     if st.get("cpu_hours_to_target") is not None:
-        proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more at {st['cpu_hours_per_pair']:.2f} CPU-h a pair)"
+        per = "" if st.get("cpu_hours_per_pair") is None else f"; {st['cpu_hours_per_pair']:.2f} CPU-h a new pair"
+        proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more, runs already made not counted{per})"
     return (f"group {gi} ({g['shape']}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

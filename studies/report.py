@@ -98,16 +98,22 @@ def programme_section(lines, specs):
         lines.append("")
         lines.append(f"Spec `{sp['path']}`; {len(recs)} finished runs, {design.cpu_hours(recs):.1f} CPU-hours.")
         lines.append("")
-        lines.append("| question | pairs | D_case/D_exact − 1 | 95 % half-width | target | state | projected pairs |")
-        lines.append("|---|---|---|---|---|---|---|")
+        lines.append("| question | pairs | D_case/D_exact − 1 | 95 % half-width | target | state | projected pairs "
+                     "| CPU-h to target |")
+        lines.append("|---|---|---|---|---|---|---|---|")
         for gi, st in status.items():
             any_group = True
             g = sp["groups"][gi]
             mean = st["mean"]
             hw = st["halfwidth"]
+            cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
             lines.append(f"| {g['shape']}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
                          f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
-                         f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} |")
+                         f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
+        lines.append("")
+        lines.append("Projected pairs: the 95 % half-width's target at the spread so far. CPU-h to target: the runs "
+                     "those pairs still need, each at the median CPU time of the finished runs of its case and time "
+                     "step; a run another question already made (a seed's exact run) costs nothing.")
         lines.append("")
     if not any_group:
         lines += ["No sequential study has finished pairs yet.", ""]
@@ -158,8 +164,7 @@ def _answer(sp, g, st, cpu):
                  f"{cpu:.1f} CPU-hours for the whole spec; the spread so far projects "
                  f"{need if need is not None else 'n/a'} pairs")
         if st.get("cpu_hours_to_target") is not None:
-            text += (f", about {st['cpu_hours_to_target']:.0f} CPU-hours more at the median cost of "
-                     f"{st['cpu_hours_per_pair']:.2f} CPU-hours a pair")
+            text += f", about {st['cpu_hours_to_target']:.0f} CPU-hours more for the runs not made yet"
         text += f" (state: {st['state']})."
     return text
 

@@ -208,8 +208,23 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     assert extra[0] == [13, 14] and status[0]["state"] == "running" and status[0]["n_needed"] > 20
     # the projection in CPU-hours: 2 runs of 600 s a pair (the records' wall time, no cpu_s)
     assert status[0]["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600)
-    assert status[0]["cpu_hours_to_target"] == pytest.approx((status[0]["n_needed"] - 12) * 2 * 600 / 3600)
-    assert "CPU-h more at 0.33 CPU-h a pair" in design.describe(0, sp["groups"][0], status[0])
+    # seeds 13-16 at the spec's legacy factor 0.5 like the records, later seeds at 1.0: half the steps
+    n_more = status[0]["n_needed"] - 12
+    assert status[0]["cpu_hours_to_target"] == pytest.approx((4 + (n_more - 4) / 2) * 2 * 600 / 3600)
+    assert "CPU-h more, runs already made not counted; 0.33 CPU-h a new pair" in design.describe(0, sp["groups"][0], status[0])
+    # a second group comparing another case with the same exact runs: its pairs cost one run each
+    # while the exact run of the seed exists (seeds 1-12), two beyond
+    recs = design.load_records(sp, rdir)
+    sp_b = dict(sp, groups=sp["groups"] + [dict(sp["groups"][0], cases=["exact", "mass_only"],
+                                                 target=dict(sp["groups"][0]["target"], case="mass_only"))])
+    run_h = 600 / 3600
+    assert design.cost_of_seeds(sp_b, 1, [1, 2, 3], recs) is None       # no mass_only run to price yet
+    mo = {k: dict(r, params=dict(r["params"], case="mass_only")) for k, r in recs.items()
+          if r["params"]["case"] == "uncorrected"}
+    priced = dict(recs, **{"mo-" + k: r for k, r in mo.items()})       # mass_only runs of known cost
+    assert design.cost_of_seeds(sp_b, 1, [1, 2, 3], priced) == pytest.approx(3 * run_h)
+    assert design.cost_of_seeds(sp_b, 1, [12, 13], priced) == pytest.approx(3 * run_h)
+    assert design.cost_of_seeds(sp, 0, [1, 2], recs) == 0.0             # both runs of seeds 1, 2 made
     runs = S.runs(sp, extra_seeds=extra)
     assert {r["seed"] for r in runs} == set(range(1, 15))  # the driver will run seeds 13 and 14
     sp2, rdir2 = _sequential(tmp_path / "b", noise_sd=0.3, budget=1.0)   # 24 runs x 600 s = 4 CPU-h > 1
