@@ -194,11 +194,20 @@ def plan(spec, rdir, recs=None):
     return extra, status
 
 
+def _cost_key(params):
+    """A run's parameters without its seed and time-step factor: runs that cost the same per step
+    (same shape, case, protocol, stiffness, length, gas)."""
+    q = {k: v for k, v in params.items() if k != "seed"}
+    q["run"] = {k: v for k, v in params["run"].items() if k != "dt_factor"}
+    return json.dumps(q, sort_keys=True, default=str)
+
+
 def _run_cost(p, recs):
     """Median CPU-hours of the finished runs of the case, protocol and time step of resolved run
     parameters ``p`` (any seed).  Without a run at that time step, the runs at other factors, each
     scaled by its factor over p's (the number of steps goes as 1/dt); None while there is none."""
-    same = [r for r in recs.values() if r["params"]["case"] == p["case"] and r["params"]["protocol"] == p["protocol"]]
+    key = _cost_key(p)
+    same = [r for r in recs.values() if _cost_key(r["params"]) == key]
     f = p["run"]["dt_factor"]
     cpu = [r.get("cpu_s", r["wall_s"]) for r in same if r["params"]["run"]["dt_factor"] == f]
     if not cpu:

@@ -241,8 +241,16 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     # A sequential group whose batch just finished may need more seeds now: plan
                     # again and queue its new runs at their group's priority, ahead of the later
                     # groups' queued runs, instead of after every run submitted so far.
+                    old_rows = rows
                     runs, _ = _plan(spec, rdir, log)
                     rows = reconcile(spec, runs, rdir)
+                    # a plan can shrink (the budget ran out since a batch was added): runs already
+                    # submitted stay in the manifest and are still collected when they finish
+                    planned = {r["key"] for r in runs}
+                    for r in dict((r["key"], r) for r in futs.values()).values():
+                        if r["key"] not in planned:
+                            runs.append(r)
+                            rows[r["key"]] = old_rows[r["key"]]
                     new = sorted((r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted),
                                  key=lambda r: -_priority(r, schedule))
                     if max_runs is not None:

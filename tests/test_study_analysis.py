@@ -219,6 +219,10 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
                                                  target=dict(sp["groups"][0]["target"], case="mass_only"))])
     run_h = 600 / 3600
     assert design.cost_of_seeds(sp_b, 1, [1, 2, 3], recs) is None       # no mass_only run to price yet
+    stiff = {"E-" + k: dict(r, params=dict(r["params"], case="mass_only",
+                                            material=dict(r["params"]["material"], youngs_modulus=1e9)))
+             for k, r in recs.items() if r["params"]["case"] == "uncorrected"}
+    assert design.cost_of_seeds(sp_b, 1, [1], dict(recs, **stiff)) is None   # another stiffness's runs do not price it
     mo = {k: dict(r, params=dict(r["params"], case="mass_only")) for k, r in recs.items()
           if r["params"]["case"] == "uncorrected"}
     priced = dict(recs, **{"mo-" + k: r for k, r in mo.items()})       # mass_only runs of known cost
@@ -399,6 +403,27 @@ def _fake_execute_logging_to(log_path):
         return {"ok": True, "fail_reasons": [], "energy_drift": rec["checks"]["energy_drift"], "steps_per_s": 1.0,
                 "wall_s": 600.0, "yade_version": "synthetic", "rot_algorithm": "synthetic"}
     return fake_execute
+
+
+def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path, monkeypatch):
+    """A re-plan after the budget is spent drops a sequential group's added seeds; those already
+    submitted must still be collected and recorded (before: KeyError in the driver, which closed
+    the cluster and killed every run in flight).  Found by review; 600 s a fake run, budget 0.8 h."""
+    g0 = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2],
+          "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 6}
+    g1 = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(11, 17))}
+    sp = spec_for(tmp_path, [g0, g1], budget=0.8)
+    log_path = tmp_path / "order.txt"
+    monkeypatch.setattr(runner, "execute", _fake_execute_logging_to(log_path))
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    ran = [tuple(ln.split()) for ln in log_path.read_text().splitlines()]
+    assert all(r["status"] == "done" for r in rows.values())
+    assert {("3", "exact"), ("3", "uncorrected")} <= set(ran)         # the dropped batch's runs finished
+    assert any("budget spent" in ln for ln in lines)
+    rdir = engine.results_dir(sp)                                    # and their records are complete on disk
+    dropped = [r for r in S.runs(sp, extra_seeds={0: [3, 4]}) if r["seed"] == 3]
+    assert dropped and all(runner.is_complete(runner.record_path(rdir, r), r["key"]) for r in dropped)
 
 
 def test_round_robin_schedule_gives_every_group_its_seeds_before_extending_one(tmp_path, monkeypatch):
