@@ -246,9 +246,8 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     rows = reconcile(spec, runs, rdir)
                     # a plan can shrink (the budget ran out since a batch was added): runs already
                     # submitted stay in the manifest and are still collected when they finish
-                    planned = {r["key"] for r in runs}
-                    for r in dict((r["key"], r) for r in futs.values()).values():
-                        if r["key"] not in planned:
+                    for r in futs.values():
+                        if r["key"] not in rows:
                             runs.append(r)
                             rows[r["key"]] = old_rows[r["key"]]
                     new = sorted((r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted),

@@ -354,16 +354,7 @@ def test_effects_pool_pairs_across_a_raised_time_step_one_pair_per_seed(tmp_path
     assert pv2.seeds == [2] and pv2.values == pytest.approx([-0.10], abs=1e-6)
 
 
-def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_path, monkeypatch):
-    """The driver plans again whenever a run finishes: the seeds a sequential group adds run next,
-    not after every later group's run submitted earlier (so a stopped study holds the first
-    group's answer).  Fake runs (synthetic records) on a 1-worker LocalCluster."""
-    g0 = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2],
-          "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 4}
-    g1 = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(11, 17))}
-    sp = spec_for(tmp_path, [g0, g1])
-    log_path = tmp_path / "order.txt"        # Dask ships a copy of the function: log to a file
-
+def _fake_execute_logging_to(log_path):
     def fake_execute(run, settings):
         import time
         time.sleep(0.3)                      # a run lasts longer than submitting the batch
@@ -374,8 +365,19 @@ def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_pat
             f.write(f"{run['seed']} {run['case']}\n")
         return {"ok": True, "fail_reasons": [], "energy_drift": rec["checks"]["energy_drift"], "steps_per_s": 1.0,
                 "wall_s": 600.0, "yade_version": "synthetic", "rot_algorithm": "synthetic"}
+    return fake_execute
 
-    monkeypatch.setattr(runner, "execute", fake_execute)
+
+def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_path, monkeypatch):
+    """The driver plans again whenever a run finishes: the seeds a sequential group adds run next,
+    not after every later group's run submitted earlier (so a stopped study holds the first
+    group's answer).  Fake runs (synthetic records) on a 1-worker LocalCluster."""
+    g0 = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2],
+          "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 4}
+    g1 = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(11, 17))}
+    sp = spec_for(tmp_path, [g0, g1])
+    log_path = tmp_path / "order.txt"        # Dask ships a copy of the function: log to a file
+    monkeypatch.setattr(runner, "execute", _fake_execute_logging_to(log_path))
     lines = []
     rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
     order = [int(ln.split()[0]) for ln in log_path.read_text().splitlines()]
@@ -389,20 +391,6 @@ def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_pat
     # `python -m studies status` counts the added seeds' runs too (before: the 16 of the listed seeds)
     st = engine.status(sp, log=lines.append)
     assert len(st) == 20 and all(r["status"] == "done" for r in st.values())
-
-
-def _fake_execute_logging_to(log_path):
-    def fake_execute(run, settings):
-        import time
-        time.sleep(0.3)                      # a run lasts longer than submitting the batch
-        rng = np.random.default_rng(run["seed"] * 10 + len(run["case"]))
-        a = 1.0 if run["case"] == "exact" else 1.05 * (1.0 + 0.3 * rng.standard_normal()) ** 2
-        rec = _scaled_record(settings["results_dir"], run, frames_of(rng, 24, 120.0, 0.5), a)
-        with open(log_path, "a") as f:
-            f.write(f"{run['seed']} {run['case']}\n")
-        return {"ok": True, "fail_reasons": [], "energy_drift": rec["checks"]["energy_drift"], "steps_per_s": 1.0,
-                "wall_s": 600.0, "yade_version": "synthetic", "rot_algorithm": "synthetic"}
-    return fake_execute
 
 
 def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path, monkeypatch):
