@@ -43,11 +43,13 @@ def _map_for(maps, p):
 
 
 def _per_seed(collected, maps):
-    """{(map file, case, protocol): {seed: {dt factor: (tau, n, C(0))}}} of the runs started in
-    equilibrium that have a map."""
+    """{(map file, case, protocol): {seed: {(dt factor, pair key): (tau, n, C(0))}}} of the runs
+    started in equilibrium that have a map.  The pair key (:func:`studies.effects.collect`'s) keeps
+    runs of one seed made with other parameters (another run length, say) apart: a case's run is
+    paired only with the exact run of its own pair key and dt factor."""
     by, facts = collected
     per = {}
-    for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
+    for pk in by:
         p = facts[pk]
         if p["gas"].get("start") != "equipartition":
             continue
@@ -58,7 +60,7 @@ def _per_seed(collected, maps):
             for (case, protocol), (_, rec) in cases.items():
                 if f"{case}/{protocol}" not in m["relaxation_time_n"]:
                     continue
-                per.setdefault((m["file"], case, protocol), {}).setdefault(seed, {})[p["run"]["dt_factor"]] = \
+                per.setdefault((m["file"], case, protocol), {}).setdefault(seed, {})[(p["run"]["dt_factor"], pk)] = \
                     run_tau(rec)
     return per
 
@@ -66,7 +68,8 @@ def _per_seed(collected, maps):
 def rows(collected, maps):
     """One row per map x (case, protocol) with gas runs started in equilibrium: the map's tau and
     its standard error, the gas's mean tau over seeds with a 95 % Student-t interval (one run per
-    seed: the smallest dt factor where a seed ran at several), and gas / map - 1."""
+    seed: the smallest dt factor, then the first pair key, where a seed ran several times; a seed's
+    runs share its initial state, so they are not independent), and gas / map - 1."""
     per = _per_seed(collected, maps)
     out = []
     by_file = {m["file"]: m for m in maps}
@@ -91,7 +94,7 @@ def rows(collected, maps):
 
 def ratio_rows(collected, maps):
     """One row per map x (case, protocol) other than exact: D_case/D_exact - 1 from the first seconds
-    of the VACF, D_init = C(0) tau / 3 per run, paired by seed (both runs at one dt; 95 % Student-t
+    of the VACF, D_init = C(0) tau / 3 per run, paired by seed (both runs at one dt and one pair key; 95 % Student-t
     interval over seeds), next to the map's prediction (``rows`` of the map file, ± 1.96 se paired
     over its collisions).  Where the gas's VACF is one exponential, D_init is its Green-Kubo D, and
     a disagreement with the map is a disagreement of the collisions themselves."""
@@ -104,7 +107,7 @@ def ratio_rows(collected, maps):
         ex = per.get((f, "exact", "paired"), {})
         vals = []
         for s in sorted(seeds):
-            common = sorted(set(seeds[s]) & set(ex.get(s, {})))    # a pair at one dt: the smallest
+            common = sorted(set(seeds[s]) & set(ex.get(s, {})))    # a pair: one dt and pair key; the smallest dt
             if common:
                 (tc, _, cc), (te, _, ce) = seeds[s][common[0]], ex[s][common[0]]
                 vals.append(cc * tc / (ce * te) - 1.0)

@@ -471,6 +471,25 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     assert rr["case"] == "uncorrected" and rr["n_pairs"] == 6
     assert rr["gas_ci_low"] <= 0.9 * 1.1 - 1.0 <= rr["gas_ci_high"], rr
     assert rr["map_relative"] == pytest.approx(-0.01)
+    # runs of the same seeds with other parameters (another run length) are no pairs of these:
+    # their uncorrected walkers (tau 50 s) must not be paired with the exact runs above (before the
+    # fix they replaced this study's uncorrected runs seed by seed, and the ratio moved to ~+0.8)
+    sp2 = spec_for(tmp_path / "other", [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 7))}],
+                   start="equipartition")
+    sp2["run"]["t_end"] = 500.0
+    for run in S.runs(sp2):
+        assert run["params"]["run"]["t_end"] == 500.0
+        if run["case"] != "uncorrected":
+            continue
+        vel, pos = est.simulate_ou(rng, 216, 1201, 0.25, 50.0, SIGMA_V * math.sqrt(0.9))
+        e_t = np.sum(vel ** 2, axis=(1, 2))
+        fr = {"t": np.arange(1201) * 0.25, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32),
+              "e_trans": e_t, "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(1201), "momentum": np.zeros((1201, 3))}
+        write_record(engine.results_dir(sp2), run, fr, vel[0], [0.0], 120.0)
+    assert rates.ratio_rows(effects.collect([sp, sp2]), [m]) == [rr]
+    assert rates.ratio_rows(effects.collect([sp2, sp]), [m]) == [rr]
+    both = {r["case"]: r for r in rates.rows(effects.collect([sp, sp2]), [m])}
+    assert both["exact"] == rows["exact"] and both["uncorrected"]["n_seeds"] == 6   # one run per seed
     sp0 = spec_for(tmp_path / "z", [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], start="zero_spin")
     for run in S.runs(sp0):
         fr, v0 = frames_of(rng, 24, 250.0, 0.5)
