@@ -42,6 +42,17 @@ def _pair_key(params):
     return S.run_key(p)
 
 
+def state_key(params):
+    """What sets a run's initial state (studies.gas_model.initial_state), but the seed: its shape,
+    gas and material without the contact stiffness, and none of its run options (time step, length)
+    nor its case, protocol or spin pairing.  Two runs of one seed and one state key start the same
+    exact clumps from the same state, so their D are correlated even when nothing else is shared."""
+    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed", "run")}
+    p["gas"] = {k: v for k, v in p["gas"].items() if k != "spin_pairing"}
+    p["material"] = {k: v for k, v in p["material"].items() if k not in ("youngs_modulus", "poisson")}
+    return S.run_key(p)
+
+
 def protocol_label(params):
     """The protocol column: the run's protocol, with "_same_spin" for runs started with every case
     at the exact case's angular velocities (``gas.spin_pairing = "same"``), whose thermal speeds
@@ -68,8 +79,9 @@ def collect(specs):
 
 class Paired(NamedTuple):
     """One effects row's paired sample: per-seed D_case/D_exact - 1 in seed order, the seeds, the
-    run keys of the exact runs used (two samples that share none are independent), and the YADE
-    versions and rotation algorithms of its runs."""
+    run keys of the exact runs used, their initial states (:func:`state_key`, seed) in seed order
+    (two samples that share none are independent), and the YADE versions and rotation algorithms
+    of its runs."""
     facts: dict
     case: str
     protocol: str
@@ -78,6 +90,7 @@ class Paired(NamedTuple):
     rot_algorithms: set
     seeds: list
     exact_keys: set
+    exact_states: list
 
 
 def _row_key(params):
@@ -110,7 +123,8 @@ def paired_values(specs, collected=None):
             recs = [r for s in used for r in slot[s][2:4]]
             out.append(Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
                               {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
-                              {slot[s][2]["key"] for s in used}))
+                              {slot[s][2]["key"] for s in used},
+                              [(state_key(slot[s][2]["params"]), s) for s in used]))
     return out
 
 

@@ -249,30 +249,41 @@ def _same_spin_answers(specs):
 def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=None):
     """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
-    D_spheres/D_exact - 1 of the sphere gas against exact (other runs: independent), with Fieller's
-    95 % interval (studies.estimators.fieller_ratio; coverage checked in the tests).  None without
-    two pairs of each, or when both share an exact run.  ``values``:
-    :func:`studies.effects.paired_values` of ``specs``, if already read."""
+    D_spheres/D_exact - 1 of the sphere gas against exact, with Fieller's 95 % interval
+    (studies.estimators.fieller_ratio, which takes a and b independent; coverage checked in the
+    tests).  Independence: an exact run's initial state (:func:`studies.effects.state_key`, seed) is
+    in at most one of the two samples; a seed whose state both use (the same exact run, or the same
+    start at another time step or run length) is left out of the larger sample (``n_dropped``).
+    None without two pairs of each.  ``values``: :func:`studies.effects.paired_values` of
+    ``specs``, if already read."""
     from .estimators import fieller_ratio
 
     values = effects.paired_values(specs) if values is None else values
 
     def best(case):
-        c = [(pv.values, pv.exact_keys) for pv in values
-             if pv.case == case and pv.protocol == "paired" and _is(pv.facts)]
-        return max(c, key=lambda t: len(t[0])) if c else ([], set())
+        c = [pv for pv in values if pv.case == case and pv.protocol == "paired" and _is(pv.facts)]
+        return max(c, key=lambda pv: len(pv.values)) if c else None
 
     def _is(p):
         return (p["shape"]["definition"].get("kind") == shape
                 and p["shape"]["definition"].get("overlap") == overlap
                 and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition")
 
-    (a, ka), (b, kb) = best("uncorrected"), best("spheres")
-    if len(a) < 2 or len(b) < 2 or ka & kb:   # shared exact runs: not independent
+    na_, nb_ = best("uncorrected"), best("spheres")
+    if na_ is None or nb_ is None:
+        return None
+    shared = set(na_.exact_states) & set(nb_.exact_states)
+    a, b = list(na_.values), list(nb_.values)
+    if shared:                                  # not independent: drop them from the larger sample
+        if len(a) >= len(b):
+            a = [v for v, st in zip(na_.values, na_.exact_states) if st not in shared]
+        else:
+            b = [v for v, st in zip(nb_.values, nb_.exact_states) if st not in shared]
+    if len(a) < 2 or len(b) < 2:
         return None
     th, lo, hi, _, na, nb = fieller_ratio(a, b)
     return {"share": th, "low": lo, "high": hi, "n_num": na, "n_gap": nb, "gap": float(np.mean(b)),
-            "shape": shape, "youngs_modulus": youngs_modulus}
+            "n_dropped": len(shared), "shape": shape, "youngs_modulus": youngs_modulus}
 
 
 def paper_share_answers(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, share=False):
@@ -281,6 +292,9 @@ def paper_share_answers(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, s
     if r is None:
         return []
     th, lo, hi, na, nb = r["share"], r["low"], r["high"], r["n_num"], r["n_gap"]
+    k = r.get("n_dropped", 0)
+    dropped = (f"; {k} seed{'s' if k != 1 else ''} whose exact start both samples use left out of the larger one, "
+               f"so that the two are independent" if k else "")
     if not np.isfinite(lo):
         reading = "the sphere-clump gap is not resolved from 0: no interval"
         ci = ""
@@ -290,7 +304,7 @@ def paper_share_answers(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, s
                   ("contains" if lo <= 0 <= hi else "excludes") + " 0"
     return [f"* **The paper's \"about 10 %\", equilibrated start** ((D_uncorrected − D_exact) / (D_spheres − D_exact), "
             f"the paper's {shape}, E = {youngs_modulus:.0e} Pa, paired velocities; {na} seed pairs for the numerator, "
-            f"{nb} for the sphere-clump gap of {pct(r['gap'])}; Fieller 95 % interval): {th:+.3f}{ci}, "
+            f"{nb} for the sphere-clump gap of {pct(r['gap'])}{dropped}; Fieller 95 % interval): {th:+.3f}{ci}, "
             f"which {reading}. Positive would mean the uncorrected clumps move towards the spheres."]
 
 

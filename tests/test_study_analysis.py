@@ -312,6 +312,19 @@ def test_paper_share_from_independent_runs_covers_the_known_ratio(tmp_path):
         fr, v0 = frames_of(rng, 48, 200.0, 0.5, scale[run["case"]])
         write_record(engine.results_dir(sp2), run, fr, v0, [0.0], 100.0)
     assert len(effects.paired_values([sp2])) == 2 and report.paper_share([sp2]) is None
+    # a gap measured from the same starts at another run length (other run keys, the same initial
+    # states of seeds 5-10) is correlated with the numerator: those seeds leave the larger sample
+    # (before: both samples used in full, as if independent)
+    sp3 = spec_for(tmp_path / "gap", [{"shape": "dimer", "cases": ["exact", "spheres"], "seeds": list(range(5, 13))}])
+    sp3["run"]["t_end"] = 500.0
+    for run in S.runs(sp3):
+        fr, v0 = frames_of(rng, 216, 400.0, 0.5, scale[run["case"]])
+        write_record(engine.results_dir(sp3), run, fr, v0, [0.0], 100.0)
+    r = report.paper_share([sp, sp3])
+    assert (r["n_num"], r["n_gap"], r["n_dropped"]) == (4, 8, 6)
+    assert r["low"] <= -0.04 / 0.4 <= r["high"]
+    (line,) = report.paper_share_answers([sp, sp3])
+    assert "4 seed pairs for the numerator, 8 for the sphere-clump gap" in line and "6 seeds whose exact start" in line
 
 
 def _scaled_record(rdir, run, base, a):
