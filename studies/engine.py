@@ -129,7 +129,13 @@ def _plan(spec, rdir, log):
     extra, status = design.plan(spec, rdir)
     for gi, st in status.items():
         log("[study] " + design.describe(gi, spec["groups"][gi], st))
-    return S.runs(spec, extra_seeds=extra), status
+    runs = S.runs(spec, extra_seeds=extra)
+    # runs of seeds an earlier plan added and this one does not (the budget ran out while they ran)
+    # stay listed while their records are on disk: the manifest lists every finished run
+    have = {r["key"] for r in runs}
+    runs += [r for r in S.runs(spec, extra_seeds=design.possible_extra_seeds(spec))
+             if r["key"] not in have and runner.is_complete(runner.record_path(rdir, r), r["key"])]
+    return runs, status
 
 
 def status(spec, log=print):

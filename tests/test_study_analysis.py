@@ -425,6 +425,13 @@ def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path
     rdir = engine.results_dir(sp)                                    # and their records are complete on disk
     dropped = [r for r in S.runs(sp, extra_seeds={0: [3, 4]}) if r["seed"] == 3]
     assert dropped and all(runner.is_complete(runner.record_path(rdir, r), r["key"]) for r in dropped)
+    # and the manifest lists them as done, after the sweep and in a status read (before: left out)
+    man = engine.read_manifest(rdir)
+    assert all(man[r["key"]]["status"] == "done" for r in dropped)
+    st = engine.status(sp, log=lambda s: None)
+    assert all(st[r["key"]]["status"] == "done" for r in dropped)
+    assert engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None) and \
+        all(engine.read_manifest(rdir)[r["key"]]["status"] == "done" for r in dropped)
 
 
 def test_round_robin_schedule_gives_every_group_its_seeds_before_extending_one(tmp_path, monkeypatch):
