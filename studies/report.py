@@ -90,13 +90,16 @@ def programme_section(lines, specs):
     any_group = False
     for sp in specs:
         rdir = engine.results_dir(sp)
-        if not os.path.isdir(rdir) or not any(g.get("target") for g in sp["groups"]):
+        if not any(g.get("target") for g in sp["groups"]):
             continue
         recs = design.load_records(sp, rdir)
         _, status = design.plan(sp, rdir, recs)
         lines.append(f"### `{sp['study']['name']}`: {sp['study']['description']}")
         lines.append("")
-        lines.append(f"Spec `{sp['path']}`; {len(recs)} finished runs, {design.cpu_hours(recs):.1f} CPU-hours.")
+        budget = sp["study"].get("budget_cpu_hours")
+        of = "" if budget is None else f" of a budget of {budget:g}"
+        lines.append(f"Spec `{sp['path']}`; " + (f"{len(recs)} finished runs, {design.cpu_hours(recs):.1f} CPU-hours{of}."
+                                                  if recs else f"not started{of} CPU-hours."))
         lines.append("")
         lines.append("| question | pairs | D_case/D_exact − 1 | 95 % half-width | target | state | projected pairs "
                      "| CPU-h to target |")
@@ -107,8 +110,8 @@ def programme_section(lines, specs):
             mean = st["mean"]
             hw = st["halfwidth"]
             cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
-            lines.append(f"| {g['shape']}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
-                         f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
+            lines.append(f"| {g['shape']}{_stiffness(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
+                         f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state'] if recs else 'not started'} | "
                          f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
         lines.append("")
         lines.append("Projected pairs: the 95 % half-width's target at the spread so far. CPU-h to target: the runs "
@@ -134,11 +137,12 @@ def effects_section(lines, rows):
 
 
 def _status_rows(specs):
-    """(spec, group, status) of every sequential group with a results directory."""
+    """(spec, group, status, CPU-hours spent) of every sequential group, those of a spec not started
+    yet included (no records: 0 pairs, 0 CPU-hours)."""
     out = []
     for sp in specs:
         rdir = engine.results_dir(sp)
-        if not os.path.isdir(rdir) or not any(g.get("target") for g in sp["groups"]):
+        if not any(g.get("target") for g in sp["groups"]):
             continue
         recs = design.load_records(sp, rdir)
         _, status = design.plan(sp, rdir, recs)
@@ -147,12 +151,21 @@ def _status_rows(specs):
     return out
 
 
+def _stiffness(g):
+    """", E = ... Pa" for a group that sets its own Young's modulus (a stiffness series), else ""."""
+    return "" if g.get("youngs_modulus") is None else f", E = {float(g['youngs_modulus']):.0e} Pa"
+
+
 def _answer(sp, g, st, cpu):
     """One sentence for one sequential question, from its status (no typed numbers)."""
-    what = f"{g['shape']}, {st['case']} vs exact ({g['protocol']} protocol, `{sp['study']['name']}`)"
+    what = f"{g['shape']}{_stiffness(g)}, {st['case']} vs exact ({g['protocol']} protocol, `{sp['study']['name']}`)"
     n, mean, hw = st["n"], st["mean"], st["halfwidth"]
     if n < 2 or hw != hw:
-        return f"* **{what}:** {n} seed pair(s) so far; no interval yet (target ±{100 * st['target']:.2f} %)."
+        budget = sp["study"].get("budget_cpu_hours")
+        of = "" if budget is None else f" of its {budget:g} budgeted"
+        begun = "not started" if cpu == 0 else f"the spec has spent {cpu:.1f}{of} CPU-hours"
+        return (f"* **{what}:** {n} seed pair(s) so far, no interval yet (target ±{100 * st['target']:.2f} %); "
+                f"{begun}" + (f" ({budget:g} CPU-hours budgeted)" if cpu == 0 and budget is not None else "") + ".")
     lo, hi = mean - hw, mean + hw
     text = (f"* **{what}:** D_case/D_exact − 1 = {pct(mean)}, 95 % CI {interval(lo, hi)} over {n} seed pairs: "
             f"{verdict(lo, hi)}.")

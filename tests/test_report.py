@@ -205,3 +205,24 @@ def test_effect_figure_tells_dimer_overlaps_apart(tmp_path, monkeypatch):
     assert "dimer D/d_s = 0.25, uncorrected, equal_energy" in labels
     assert "dimer D/d_s = 0.5, uncorrected, equal_energy" in labels
     assert len(set(markers)) == 2
+
+
+def test_a_study_not_started_is_stated_with_its_budget(tmp_path):
+    """A sequential spec without a results directory (the stiffness series before its first run) is
+    a question of the report too: each group says it has no pairs and that nothing is spent, with
+    the budget, and groups that differ only in Young's modulus are told apart (before: the spec was
+    left out of both sections)."""
+    sp = S.load(S.ROOT + "/studies/specs/stiffness.toml")
+    sp["study"]["results"] = str(tmp_path / "nowhere")
+    rows = report._status_rows([sp])
+    assert len(rows) == 2 and all(st["n"] == 0 and cpu == 0 for _, _, st, cpu in rows)
+    a = [report._answer(*r) for r in rows]
+    assert a[0].startswith("* **dimer, E = 1e+08 Pa, mass_only vs exact (paired protocol, `stiffness`):** 0 seed pair(s)")
+    assert a[1].startswith("* **dimer, E = 1e+09 Pa, mass_only vs exact")
+    assert all(f"not started ({sp['study']['budget_cpu_hours']:g} CPU-hours budgeted)." in x for x in a)
+    lines = []
+    report.programme_section(lines, [sp])
+    text = "\n".join(lines)
+    assert "### `stiffness`" in text and f"not started of a budget of {sp['study']['budget_cpu_hours']:g} CPU-hours" in text
+    assert "| dimer, E = 1e+08 Pa, mass_only vs exact, paired | 0 | n/a | n/a | 1.00 % | not started |" in text
+    assert not (tmp_path / "nowhere").exists()          # the report reads; it creates nothing
