@@ -199,6 +199,44 @@ def _mass_scaling(sp, g, st):
     return text + (": inside the interval." if inside else ": **outside** the interval.")
 
 
+def _map_of_group(maps, sp, g):
+    """The collision map (benchmarks/case_map.py) of a group's gas: the same shape definition,
+    density, Young's modulus and energy per particle; None if there is none."""
+    mat, gas, _ = S.group_tables(sp, g)
+    shape = sp["shapes"][g["shape"]]
+    for m in maps:
+        ms = m.get("shape", {})
+        if (ms.get("kind") == shape.get("kind") and ms.get("overlap") == shape.get("overlap")
+                and ms.get("sphere_diameter") == shape.get("sphere_diameter")
+                and float(m["material"]["density"]) == float(mat["density"])
+                and float(m["material"]["youngs_modulus"]) == float(mat["youngs_modulus"])
+                and m.get("energy_per_particle") == gas["energy_per_particle"]):
+            return m
+    return None
+
+
+def _map_check(sp, g, st, maps):
+    """" The collision map predicts X ± Y %: inside / outside the interval." for a group whose gas has
+    a collision map with its case and protocol; "" otherwise.  The map is the first Chapman-Enskog
+    approximation from YADE collisions with the gas's contacts (softness included), so it checks
+    the gas where a hard-particle prediction cannot."""
+    m = _map_of_group(maps, sp, g)
+    r = None if m is None else _map_rows(m).get((st["case"], g["protocol"]))
+    if r is None:
+        return ""
+    text = (f" The collision map (`{m['file']}`, Hertz contacts, first Chapman-Enskog approximation) predicts "
+            f"{pct(r['relative'])} ± {100 * 1.96 * r['se']:.2f} %")
+    hw = st["halfwidth"]
+    if st["n"] < 2 or hw != hw:
+        return text + "."
+    lo, hi = st["mean"] - hw, st["mean"] + hw
+    p_lo, p_hi = r["relative"] - 1.96 * r["se"], r["relative"] + 1.96 * r["se"]
+    reading = ("inside the interval" if lo <= r["relative"] <= hi
+               else "outside the interval, but the two intervals overlap" if p_lo <= hi and lo <= p_hi
+               else "**outside** the interval, and the two intervals do not overlap")
+    return text + f": {reading}."
+
+
 def same_spin_pairs(sp, settle_s=200.0):
     """Per seed, for each non-exact case of a ``spin_pairing = "same"`` spec: D_case/D_exact (Green-Kubo)
     and the ratio r of the case's translational kinetic energy per unit mass to exact's after
@@ -403,7 +441,7 @@ def answers_section(lines, specs, sph, effect_rows=(), maps=(), share=False):
     d = os.path.join(RESULTS, "granular_gas", "diff_D.csv")
     rows = _status_rows(specs)
     for sp, g, st, cpu in rows:
-        lines.append(_answer(sp, g, st, cpu) + _mass_scaling(sp, g, st))
+        lines.append(_answer(sp, g, st, cpu) + _mass_scaling(sp, g, st) + _map_check(sp, g, st, maps))
     if not rows:
         lines.append("* No sequential study has finished pairs yet.")
     lines += _same_spin_answers(specs)

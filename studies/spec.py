@@ -253,7 +253,9 @@ def validate(raw):
     return spec
 
 
-def _group_tables(spec, g):
+def group_tables(spec, g):
+    """(material, gas, run) tables of group ``g``: the spec's, with the group's overrides
+    (:data:`OVERRIDES`) applied; copies, the spec is not changed."""
     mat, gas, run = dict(spec["material"]), dict(spec["gas"]), dict(spec["run"])
     for k, t in OVERRIDES.items():
         if g.get(k) is not None:
@@ -265,7 +267,7 @@ def resolve_run(spec, g, case, seed):
     """The fully resolved parameters of one run (a JSON-able dict); its key is :func:`run_key`."""
     import clumpprops
 
-    mat, gas, run = _group_tables(spec, g)
+    mat, gas, run = group_tables(spec, g)
     legacy = spec["run"].get("legacy_dt")
     if legacy and g.get("dt_factor") is None and seed < legacy["below_seed"]:
         # Seeds run before the study's dt_factor was raised keep their factor, so their runs (and

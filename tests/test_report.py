@@ -226,3 +226,26 @@ def test_a_study_not_started_is_stated_with_its_budget(tmp_path):
     assert "### `stiffness`" in text and f"not started of a budget of {sp['study']['budget_cpu_hours']:g} CPU-hours" in text
     assert "| dimer, E = 1e+08 Pa, mass_only vs exact, paired | 0 | n/a | n/a | 1.00 % | not started |" in text
     assert not (tmp_path / "nowhere").exists()          # the report reads; it creates nothing
+
+
+def test_answers_are_checked_against_the_collision_map_of_their_gas():
+    """An answer is compared with the collision map of the same shape, density, stiffness and energy
+    (and only that one): inside its interval, outside with overlapping intervals, or outside."""
+    sp = S.load(S.ROOT + "/studies/specs/dimer_equal_energy.toml")
+    g = sp["groups"][0]
+    m = {"file": "m.json", "shape": dict(sp["shapes"][g["shape"]]), "material": dict(sp["material"]),
+         "energy_per_particle": sp["gas"]["energy_per_particle"],
+         "rows": [{"case": "uncorrected", "protocol": "equal_energy", "relative": -0.075, "se": 0.001}]}
+    st = {"case": "uncorrected", "n": 6}
+    assert report._map_check(sp, g, dict(st, mean=-0.07, halfwidth=0.02), [m]).endswith(
+        "predicts -7.50 % ± 0.20 %: inside the interval.")
+    assert report._map_check(sp, g, dict(st, mean=-0.05, halfwidth=0.024), [m]).endswith(
+        "outside the interval, but the two intervals overlap.")
+    assert report._map_check(sp, g, dict(st, mean=-0.02, halfwidth=0.02), [m]).endswith(
+        "**outside** the interval, and the two intervals do not overlap.")
+    assert report._map_check(sp, g, dict(st, n=1, mean=-0.02, halfwidth=float("nan")), [m]).endswith("± 0.20 %.")
+    stiffer = dict(m, material=dict(m["material"], youngs_modulus=1e9))
+    other = dict(m, shape=dict(m["shape"], overlap=0.25))
+    for wrong in (stiffer, other):
+        assert report._map_check(sp, g, dict(st, mean=-0.07, halfwidth=0.02), [wrong]) == ""
+    assert report._map_check(sp, dict(g, protocol="paired"), dict(st, mean=-0.07, halfwidth=0.02), [m]) == ""
