@@ -43,14 +43,16 @@ def _pair_key(params):
 
 
 def state_key(params):
-    """What sets a run's initial state (studies.gas_model.initial_state), but the seed: its shape,
-    gas and material without the contact stiffness, and none of its run options (time step, length)
-    nor its case, protocol or spin pairing.  Two runs of one seed and one state key start the same
-    exact clumps from the same state, so their D are correlated even when nothing else is shared."""
-    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed", "run")}
-    p["gas"] = {k: v for k, v in p["gas"].items() if k != "spin_pairing"}
-    p["material"] = {k: v for k, v in p["material"].items() if k not in ("youngs_modulus", "poisson")}
-    return S.run_key(p)
+    """What sets a run's initial state (studies.gas_model.initial_state via studies.spec.run_input),
+    but the seed: the clump's members and radii, the density, the gas (without the spin pairing,
+    which leaves the exact case's state alone) and the model version.  Not the YADE or clumpprops
+    version, the stiffness, the run options (time step, length), the case or the protocol.  Two
+    exact runs of one seed and one state key start from the same state, so their D are correlated
+    even when nothing else is shared."""
+    return S.run_key({"model_version": params.get("model_version"),
+                      "shape": {k: params["shape"][k] for k in ("members", "radii")},
+                      "density": float(params["material"]["density"]),
+                      "gas": {k: v for k, v in params["gas"].items() if k != "spin_pairing"}})
 
 
 def protocol_label(params):

@@ -13,6 +13,8 @@ Pure functions of run records and map files; no YADE, no Dask.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import estimators as est
@@ -30,16 +32,24 @@ def run_tau(rec, t_fit=T_FIT):
     return est.initial_decay_time(lag, c, t_fit), n, float(c[0])
 
 
+def _same(a, b):
+    return a is not None and b is not None and math.isclose(float(a), float(b), rel_tol=1e-9)
+
+
+def map_matches(m, p):
+    """Whether collision map ``m`` (benchmarks/case_map.py's file) is of the gas of run parameters
+    ``p``: the same shape (kind, overlap, sphere diameter), density, Young's modulus, Poisson ratio
+    (where the map states it) and energy per particle."""
+    ms, sh, mm, pm = m.get("shape", {}), p["shape"]["definition"], m.get("material", {}), p["material"]
+    return (ms.get("kind") == sh.get("kind") and ms.get("overlap") == sh.get("overlap")
+            and ms.get("sphere_diameter") == sh.get("sphere_diameter")
+            and _same(mm.get("youngs_modulus"), pm["youngs_modulus"]) and _same(mm.get("density"), pm["density"])
+            and ("poisson" not in mm or _same(mm["poisson"], pm["poisson"]))
+            and _same(m.get("energy_per_particle"), p["gas"]["energy_per_particle"]))
+
+
 def _map_for(maps, p):
-    sh = p["shape"]["definition"]
-    for m in maps:
-        if ("relaxation_time_n" in m and m["shape"].get("kind") == sh.get("kind")
-                and m["shape"].get("overlap") == sh.get("overlap")
-                and float(m["material"]["youngs_modulus"]) == float(p["material"]["youngs_modulus"])
-                and float(m["material"]["density"]) == float(p["material"]["density"])
-                and m.get("energy_per_particle") == p["gas"]["energy_per_particle"]):
-            return m
-    return None
+    return next((m for m in maps if "relaxation_time_n" in m and map_matches(m, p)), None)
 
 
 def _per_seed(collected, maps):

@@ -99,7 +99,8 @@ def programme_section(lines, specs):
         budget = sp["study"].get("budget_cpu_hours")
         of = "" if budget is None else f" of a budget of {budget:g}"
         lines.append(f"Spec `{sp['path']}`; " + (f"{len(recs)} finished runs, {design.cpu_hours(recs):.1f} CPU-hours{of}."
-                                                  if recs else f"not started{of} CPU-hours."))
+                                                  if recs else "not started" + ("" if budget is None else
+                                                                                f"; budget {budget:g} CPU-hours") + "."))
         lines.append("")
         lines.append("| question | pairs | D_case/D_exact − 1 | 95 % half-width | target | state | projected pairs "
                      "| CPU-h to target |")
@@ -153,7 +154,7 @@ def _status_rows(specs):
 
 def _stiffness(g):
     """", E = ... Pa" for a group that sets its own Young's modulus (a stiffness series), else ""."""
-    return "" if g.get("youngs_modulus") is None else f", E = {float(g['youngs_modulus']):.0e} Pa"
+    return "" if g.get("youngs_modulus") is None else f", E = {float(g['youngs_modulus']):g} Pa"
 
 
 def _answer(sp, g, st, cpu):
@@ -199,20 +200,16 @@ def _mass_scaling(sp, g, st):
     return text + (": inside the interval." if inside else ": **outside** the interval.")
 
 
-def _map_of_group(maps, sp, g):
-    """The collision map (benchmarks/case_map.py) of a group's gas: the same shape definition,
-    density, Young's modulus and energy per particle; None if there is none."""
-    mat, gas, _ = S.group_tables(sp, g)
-    shape = sp["shapes"][g["shape"]]
-    for m in maps:
-        ms = m.get("shape", {})
-        if (ms.get("kind") == shape.get("kind") and ms.get("overlap") == shape.get("overlap")
-                and ms.get("sphere_diameter") == shape.get("sphere_diameter")
-                and float(m["material"]["density"]) == float(mat["density"])
-                and float(m["material"]["youngs_modulus"]) == float(mat["youngs_modulus"])
-                and m.get("energy_per_particle") == gas["energy_per_particle"]):
-            return m
-    return None
+def _map_of_group(maps, sp, g, case):
+    """(collision map, effective protocol) of a group's gas for ``case`` (benchmarks/case_map.py; the
+    same shape, material and energy: :func:`studies.rates.map_matches`), or (None, None).  A map
+    is of a gas in equipartition at each case's own temperature, so a spec that gives every case
+    exact's spins (``spin_pairing = "same"``) has none."""
+    p = S.resolve_run(sp, g, case, g["seeds"][0])
+    if S.spin_pairing_of(p) == "same":
+        return None, None
+    m = next((m for m in maps if rates.map_matches(m, p)), None)
+    return m, (None if m is None else p["protocol"])
 
 
 def _map_check(sp, g, st, maps):
@@ -220,8 +217,8 @@ def _map_check(sp, g, st, maps):
     a collision map with its case and protocol; "" otherwise.  The map is the first Chapman-Enskog
     approximation from YADE collisions with the gas's contacts (softness included), so it checks
     the gas where a hard-particle prediction cannot."""
-    m = _map_of_group(maps, sp, g)
-    r = None if m is None else _map_rows(m).get((st["case"], g["protocol"]))
+    m, protocol = _map_of_group(maps, sp, g, st["case"])
+    r = None if m is None else _map_rows(m).get((st["case"], protocol))
     if r is None:
         return ""
     text = (f" The collision map (`{m['file']}`, Hertz contacts, first Chapman-Enskog approximation) predicts "

@@ -223,7 +223,7 @@ def test_a_study_not_started_is_stated_with_its_budget(tmp_path):
     lines = []
     report.programme_section(lines, [sp])
     text = "\n".join(lines)
-    assert "### `stiffness`" in text and f"not started of a budget of {sp['study']['budget_cpu_hours']:g} CPU-hours" in text
+    assert "### `stiffness`" in text and f"not started; budget {sp['study']['budget_cpu_hours']:g} CPU-hours." in text
     assert "| dimer, E = 1e+08 Pa, mass_only vs exact, paired | 0 | n/a | n/a | 1.00 % | not started |" in text
     assert not (tmp_path / "nowhere").exists()          # the report reads; it creates nothing
 

@@ -50,11 +50,12 @@ def write_record(rdir, run, frames, v0, cuts, max_lag, rot_dof=2, wall_s=600.0):
     return rec
 
 
-def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None, schedule=None):
+def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None, schedule="in_order"):
+    """A synthetic spec from dimer_paired.toml's tables with ``groups``; the study options the
+    tests depend on are set here, not inherited (the committed spec's schedule may change)."""
     with open(os.path.join(S.SPEC_DIR, "dimer_paired.toml"), "rb") as f:
         r = tomllib.load(f)
-    if schedule is not None:
-        r["study"]["schedule"] = schedule
+    r["study"]["schedule"] = schedule
     if start is not None:
         r["gas"]["start"] = start
     r["study"]["results"] = str(tmp / "results")
@@ -476,7 +477,7 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
               "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(1201), "momentum": np.zeros((1201, 3))}
         write_record(engine.results_dir(sp), run, fr, vel[0], [0.0], 60.0)
     n = sp["gas"]["n_particles"] / 10.0 ** 3                               # write_record's box: 10 m
-    m = {"file": "map.json", "shape": {"kind": "dimer", "overlap": 0.5}, "material": dict(sp["material"]),
+    m = {"file": "map.json", "shape": dict(sp["shapes"]["dimer"]), "material": dict(sp["material"]),
          "energy_per_particle": sp["gas"]["energy_per_particle"],
          "relaxation_time_n": {"exact/paired": {"value": 25.0 * n, "se": 0.1 * n},
                                "uncorrected/paired": {"value": 27.5 * n, "se": 0.1 * n}},
@@ -509,9 +510,33 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     assert rates.ratio_rows(effects.collect([sp, sp2]), [m]) == [rr]
     assert rates.ratio_rows(effects.collect([sp2, sp]), [m]) == [rr]
     both = {r["case"]: r for r in rates.rows(effects.collect([sp, sp2]), [m])}
-    assert both["exact"] == rows["exact"] and both["uncorrected"]["n_seeds"] == 6   # one run per seed
+    only2 = {r["case"]: r for r in rates.rows(effects.collect([sp2]), [m])}
+    assert both["exact"] == rows["exact"] and both["uncorrected"]["n_seeds"] == 6   # one run per seed,
+    assert both["uncorrected"]["gas_tau"] in (rows["uncorrected"]["gas_tau"], only2["uncorrected"]["gas_tau"])  # one key
     sp0 = spec_for(tmp_path / "z", [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], start="zero_spin")
     for run in S.runs(sp0):
         fr, v0 = frames_of(rng, 24, 250.0, 0.5)
         write_record(engine.results_dir(sp0), run, fr, v0, [0.0], 100.0)
     assert rates.rows(effects.collect([sp0]), [m]) == []
+
+
+def test_state_key_is_the_initial_state():
+    """Exact runs that start from the same state (studies.spec.run_input's initial arrays) share a
+    state key whatever their YADE version, time step, length, stiffness or protocol; another gas
+    or shape gives another key and another state."""
+    sp = spec_for(Path("/nonexistent"), [{"shape": "dimer", "cases": ["exact"], "seeds": [3]}])
+    g = sp["groups"][0]
+    base = S.resolve_run(sp, g, "exact", 3)
+    init = S.run_input(base)["initial"]
+    same = [dict(base, yade="2025.2", clumpprops_version="9.9"),
+            dict(base, run=dict(base["run"], dt_factor=0.25, t_end=50.0)),
+            dict(base, material=dict(base["material"], youngs_modulus=1e9)),
+            dict(base, gas=dict(base["gas"], spin_pairing="same"))]
+    for p in same:
+        assert effects.state_key(p) == effects.state_key(base)
+        assert S.run_input(p)["initial"] == init
+    other = [dict(base, gas=dict(base["gas"], energy_per_particle=2.0)),
+             dict(base, material=dict(base["material"], density=2000.0))]
+    for p in other:
+        assert effects.state_key(p) != effects.state_key(base)
+        assert S.run_input(p)["initial"]["vel"] != init["vel"]
