@@ -169,7 +169,7 @@ def plan(spec, rdir, recs=None):
             st.update(case=tgt["case"], target=tgt["halfwidth"], seeds=len(seeds), finished=finished,
                       cpu_hours=spent, budget_cpu_hours=budget)
             if not finished:
-                st["state"] = "running"
+                st["state"] = "running" if any(r["key"] in recs for r in runs) else "not started"
                 break
             if st["met"]:
                 st["state"] = "target met"
@@ -266,6 +266,7 @@ def describe(gi, g, st):
     if st.get("cpu_hours_to_target") is not None:
         per = "" if st.get("cpu_hours_per_pair") is None else f"; {st['cpu_hours_per_pair']:.2f} CPU-h a new pair"
         proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more, runs already made not counted{per})"
-    return (f"group {gi} ({g['shape']}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
+    stiff = "" if g.get("youngs_modulus") is None else f" at E = {float(g['youngs_modulus']):g} Pa"
+    return (f"group {gi} ({g['shape']}{stiff}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

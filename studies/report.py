@@ -112,7 +112,7 @@ def programme_section(lines, specs):
             hw = st["halfwidth"]
             cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
             lines.append(f"| {g['shape']}{_stiffness(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
-                         f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state'] if recs else 'not started'} | "
+                         f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
                          f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
         lines.append("")
         lines.append("Projected pairs: the 95 % half-width's target at the spread so far. CPU-h to target: the runs "
