@@ -52,7 +52,9 @@ def write_record(rdir, run, frames, v0, cuts, max_lag, rot_dof=2, wall_s=600.0):
 
 def spec_for(tmp, groups, t_eq=0.0, cuts=(0.0,), max_lag=100.0, budget=None, start=None, schedule="in_order"):
     """A synthetic spec from dimer_paired.toml's tables with ``groups``; the study options the
-    tests depend on are set here, not inherited (the committed spec's schedule may change)."""
+    tests depend on are set here, not inherited (the committed spec's schedule may change).  Its
+    ``run.legacy_dt`` (seeds below 17 at dt factor 0.5, later ones at 1.0) is kept on purpose: the
+    tests of pooled time steps and of CPU-hour pricing across factors rely on it."""
     with open(os.path.join(S.SPEC_DIR, "dimer_paired.toml"), "rb") as f:
         r = tomllib.load(f)
     r["study"]["schedule"] = schedule
