@@ -93,7 +93,7 @@ def plot_all(results, log=print):
     if eff is not None:   # the sphere gas is not a clump's mass-property error (its -40 % would hide the rest)
         eff = eff[(eff["case"] != "spheres") & (eff["n_pairs"] >= 2)]   # one pair: no interval, no point
     if eff is not None and len(eff):
-        fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
+        fig, axes = plt.subplots(1, 2, figsize=(12, 6.8), sharey=True)
         ov_key = eff["overlap"].map(_overlap_str)
         for (shape, ov, prot, case), g in eff.groupby([eff["shape"], ov_key, eff["protocol"], eff["case"]]):
             kw = dict(color=CASE_COLORS.get(case, "gray"), fmt=_marker(shape, ov),
@@ -117,9 +117,10 @@ def plot_all(results, log=print):
             ax.set_xlabel(what)
             ax.grid(alpha=0.3)
         axes[0].set_ylabel("D_case / D_exact − 1 (%), 95 % CI over seed pairs")
-        axes[0].legend(fontsize=7, loc="best")
+        handles, labels = axes[0].get_legend_handles_labels()     # below both panels: it hid the shapes' points
+        fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=7)
         fig.suptitle("Effect of the clump's mass properties on D, one point per shape × overlap × protocol × case")
-        fig.tight_layout()
+        fig.tight_layout(rect=(0, 0.04 + 0.022 * ((len(labels) + 2) // 3), 1, 1))
         made.append(_save(fig, results, "effects.png"))
 
         dim = eff[(eff["shape"] == "dimer") & (eff["protocol"] == "paired") & (eff["overlap"].astype(str) == "0.5")
