@@ -195,7 +195,8 @@ def test_effect_figure_tells_dimer_overlaps_apart(tmp_path, monkeypatch):
 
     def spy(fig, results, name):
         ax = fig.axes[0]
-        saved[name] = ([t.get_text() for t in ax.get_legend().get_texts()],
+        leg = ax.get_legend() or fig.legends[0]          # effects.png: one legend below both panels
+        saved[name] = ([t.get_text() for t in leg.get_texts()],
                        [c.lines[0].get_marker() for c in ax.containers])
         return real_save(fig, results, name)
 
