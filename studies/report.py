@@ -422,6 +422,17 @@ def plain_words(effect_rows, maps, share):
                     f"{100 * top:.2f} % of D at 95 %"
                     + (": no shape shows an inertia effect as large as 1 % of D." if top < 0.01 else ".")
                     + " At the same energy the mass error acts through the thermal speed, sqrt(m_exact/m_summed).")
+    gas = [(label, e) for label, e in (("mass corrected alone (mass_only: exact m, summed I)",
+                                         _effect_row(effect_rows, "paired", case="mass_only")),
+                                        ("inertia corrected alone (inertia_only: summed m, exact I)",
+                                         _effect_row(effect_rows, "paired", case="inertia_only"))) if e]
+    if gas:
+        c = ("In the gas (the paper's dimer, same velocities), with the " + "; with the ".join(
+            f"{label}: {ci(e)}, {verdict(e['relative_ci_low'], e['relative_ci_high'])}" for label, e in gas) + ".")
+        if said and said[-1].startswith("* **Through which part?**"):
+            said[-1] += " " + c
+        else:
+            said.append("* **Through which part?** " + c)
     if share is not None and np.isfinite(share["low"]):
         where = ("inside" if share["low"] <= 0.10 <= share["high"] else "outside")
         said.append(f"* **The paper's \"about 10 %\"** of the sphere-clump gap: the uncorrected clumps' share is "

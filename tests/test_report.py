@@ -181,6 +181,18 @@ def test_plain_words_from_the_tables_maps_and_share():
     text = "\n".join(report.plain_words([], [cmap(1e7, 0.0065, 0.0067)], None))
     assert "With the same kinetic energy for every case: predicted -7.50 %" in text and ": ;" not in text
     assert report.plain_words([], [], None) == []
+    # the gas's mass/inertia decomposition joins the "which part" answer, with or without maps
+    dec = [dict(eff[0], case="mass_only", n_pairs=12, relative=0.0025, relative_ci_low=-0.0113, relative_ci_high=0.0164),
+           dict(eff[0], case="inertia_only", n_pairs=7, relative=0.0168, relative_ci_low=0.0073, relative_ci_high=0.0262),
+           dict(eff[0], case="inertia_only", n_pairs=1, youngs_modulus=1e9)]           # one pair: no interval, left out
+    text = "\n".join(report.plain_words(eff + dec, maps, share))
+    which = next(ln for ln in text.splitlines() if ln.startswith("* **Through which part?**"))
+    assert "the contact's softness" in which and which.endswith(
+        "with the mass corrected alone (mass_only: exact m, summed I): +0.25 % [-1.13, +1.64] % (12 seed pairs), no effect "
+        "resolved: |effect| < 1.64 % at 95 %; with the inertia corrected alone (inertia_only: summed m, exact I): "
+        "+1.68 % [+0.73, +2.62] % (7 seed pairs), larger than exact, resolved.")
+    alone = report.plain_words(dec[1:], [], None)
+    assert alone[2].startswith("* **Through which part?** In the gas") and "mass_only" not in alone[2]
 
 
 def test_effect_figure_tells_dimer_overlaps_apart(tmp_path, monkeypatch):
