@@ -172,6 +172,10 @@ def _answer(sp, g, st, cpu):
             f"{verdict(lo, hi)}.")
     if st["state"] == "target met":
         text += f" Target half-width ±{100 * st['target']:.2f} % met."
+    elif st["met"]:
+        text += (f" Target ±{100 * st['target']:.2f} % reached (half-width {100 * hw:.2f} % after "
+                 f"{cpu:.1f} CPU-hours for the whole spec); the seeds the group lists are still running "
+                 f"(state: {st['state']}).")
     else:
         need = st["n_needed"]
         text += (f" Target ±{100 * st['target']:.2f} % not met yet: half-width {100 * hw:.2f} % after "

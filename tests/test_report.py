@@ -265,3 +265,17 @@ def test_answers_are_checked_against_the_collision_map_of_their_gas():
     for wrong in (stiffer, other):
         assert report._map_check(sp, g, dict(st, mean=-0.07, halfwidth=0.02), [wrong]) == ""
     assert report._map_check(sp, dict(g, protocol="paired"), dict(st, mean=-0.07, halfwidth=0.02), [m]) == ""
+
+
+def test_answer_says_whether_the_target_is_met_reached_or_not_yet():
+    """Met (the group finished), reached while the group's listed seeds still run, or not yet with
+    the projection."""
+    sp = S.load(S.ROOT + "/studies/specs/dimer_paired.toml")
+    g = sp["groups"][2]
+    st = {"case": "inertia_only", "n": 12, "mean": 0.0169, "halfwidth": 0.0073, "target": 0.01, "met": True,
+          "state": "running", "n_needed": 12}
+    assert "Target ±1.00 % reached (half-width 0.73 % after 18.2 CPU-hours for the whole spec); the seeds the group " \
+           "lists are still running (state: running)." in report._answer(sp, g, st, 18.2)
+    assert "Target half-width ±1.00 % met." in report._answer(sp, g, dict(st, state="target met"), 18.2)
+    no = report._answer(sp, g, dict(st, met=False, halfwidth=0.0138, n_needed=21, cpu_hours_to_target=2.0), 18.2)
+    assert "Target ±1.00 % not met yet: half-width 1.38 %" in no and "projects 21 pairs, about 2 CPU-hours more" in no
