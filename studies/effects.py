@@ -81,9 +81,8 @@ def collect(specs):
 
 class Paired(NamedTuple):
     """One effects row's paired sample: per-seed D_case/D_exact - 1 in seed order, the seeds, the
-    run keys of the exact runs used, their initial states (:func:`state_key`, seed) in seed order
-    (two samples that share none are independent), and the YADE versions and rotation algorithms
-    of its runs."""
+    initial states (:func:`state_key`, seed) of the exact runs used, in seed order (two samples
+    that share none are independent), and the YADE versions and rotation algorithms of its runs."""
     facts: dict
     case: str
     protocol: str
@@ -91,7 +90,6 @@ class Paired(NamedTuple):
     yade_versions: set
     rot_algorithms: set
     seeds: list
-    exact_keys: set
     exact_states: list
 
 
@@ -125,7 +123,6 @@ def paired_values(specs, collected=None):
             recs = [r for s in used for r in slot[s][2:4]]
             out.append(Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
                               {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
-                              {slot[s][2]["key"] for s in used},
                               [(state_key(slot[s][2]["params"]), s) for s in used]))
     return out
 
