@@ -80,17 +80,19 @@ def window_of(rec, t_cut):
                    f"(stored: {[w['t_cut'] for w in rec['windows']]}): add it to analysis.cuts and rerun")
 
 
-def run_d(rec, t_eq):
-    """Green-Kubo D (m^2/s) of one run record, its jackknife SE over particle groups, and the cut."""
+def run_d(rec, t_eq, stderr=True):
+    """Green-Kubo D (m^2/s) of one run record, its jackknife SE over particle groups (m^2/s), and the
+    cut (s).  ``stderr=False`` leaves the SE out (``D_stderr`` None): the jackknife refits D once per
+    particle group, ten times the cost of D, and the paired comparisons over seeds never read it."""
     t_cut, detected = analysis_cut(rec, t_eq)
     w = window_of(rec, t_cut)
     lag = np.arange(len(w["vacf"])) * w["frame_interval"]      # the stored lags are rounded to 7 digits
     try:
         d = est.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
-        se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"]))
+        se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"])) if stderr else None
     except ValueError as e:
         raise ValueError(f"run {rec['name']}: no Green-Kubo D from the window at {t_cut} s: {e}") from None
-    return {"D": float(d), "D_stderr": float(se), "t_cut": t_cut, "t_cut_detected": detected}
+    return {"D": float(d), "D_stderr": None if se is None else float(se), "t_cut": t_cut, "t_cut_detected": detected}
 
 
 def possible_extra_seeds(spec):
@@ -139,7 +141,7 @@ def paired_relative(recs_by_key, runs, case, t_eq):
     for r in runs:
         rec = recs_by_key.get(r["key"])
         if rec is not None and rec["checks"]["ok"]:
-            by.setdefault(r["seed"], {})[r["case"]] = run_d(rec, t_eq)["D"]
+            by.setdefault(r["seed"], {})[r["case"]] = run_d(rec, t_eq, stderr=False)["D"]
     return [(s, v[case] / v["exact"] - 1.0) for s, v in sorted(by.items()) if case in v and "exact" in v]
 
 
@@ -259,6 +261,12 @@ def cost_of_seeds(spec, gi, seeds, recs):
     return total
 
 
+def shape_label(g):
+    """A group's shape as the status lines and the report name it: "dimer", or "dimer at E = 1e+08 Pa"
+    for a group that sets its own Young's modulus (a stiffness series)."""
+    return g["shape"] + ("" if g.get("youngs_modulus") is None else f" at E = {float(g['youngs_modulus']):g} Pa")
+
+
 def describe(gi, g, st):
     hw = st["halfwidth"]
     hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
@@ -266,7 +274,6 @@ def describe(gi, g, st):
     if st.get("cpu_hours_to_target") is not None:
         per = "" if st.get("cpu_hours_per_pair") is None else f"; {st['cpu_hours_per_pair']:.2f} CPU-h a new pair"
         proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more, runs already made not counted{per})"
-    stiff = "" if g.get("youngs_modulus") is None else f" at E = {float(g['youngs_modulus']):g} Pa"
-    return (f"group {gi} ({g['shape']}{stiff}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
+    return (f"group {gi} ({shape_label(g)}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

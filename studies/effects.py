@@ -62,18 +62,23 @@ def protocol_label(params):
     return params["protocol"] + ("_same_spin" if S.spin_pairing_of(params) == "same" else "")
 
 
-def collect(specs):
-    """{(pair_key, seed): {case: (D, record)}} and the group facts of every pair key."""
+def collect(specs, records=None):
+    """{(pair_key, seed): {case: (D, record)}} and the group facts of every pair key.
+    ``records``: {spec path: :func:`design.load_records` of it}, if already read."""
     by, facts = {}, {}
     for sp in specs:
         rdir = engine.results_dir(sp)
-        if not os.path.isdir(rdir):
+        if records is not None and sp["path"] in records:
+            recs = records[sp["path"]]
+        elif os.path.isdir(rdir):
+            recs = design.load_records(sp, rdir)
+        else:
             continue
-        for key, rec in design.load_records(sp, rdir).items():
+        for key, rec in recs.items():
             if not rec["checks"]["ok"]:
                 continue
             p = rec["params"]
-            d = design.run_d(rec, sp["analysis"]["t_eq"])["D"]
+            d = design.run_d(rec, sp["analysis"]["t_eq"], stderr=False)["D"]
             by.setdefault(_pair_key(p), {}).setdefault(p["seed"], {})[(p["case"], protocol_label(p))] = (d, rec)
             facts[_pair_key(p)] = p
     return by, facts

@@ -126,7 +126,8 @@ def _plan(spec, rdir, log):
         return S.runs(spec), {}
     from . import design
 
-    extra, status = design.plan(spec, rdir)
+    recs = design.load_records(spec, rdir)      # every finished run, any seed the design could add
+    extra, status = design.plan(spec, rdir, recs)
     for gi, st in status.items():
         log("[study] " + design.describe(gi, spec["groups"][gi], st))
     runs = S.runs(spec, extra_seeds=extra)
@@ -134,7 +135,7 @@ def _plan(spec, rdir, log):
     # stay listed while their records are on disk: the manifest lists every finished run
     have = {r["key"] for r in runs}
     runs += [r for r in S.runs(spec, extra_seeds=design.possible_extra_seeds(spec))
-             if r["key"] not in have and runner.is_complete(runner.record_path(rdir, r), r["key"])]
+             if r["key"] not in have and r["key"] in recs]
     return runs, status
 
 

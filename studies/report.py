@@ -15,6 +15,7 @@ import json
 import math
 import os
 import sys
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -85,15 +86,33 @@ def _uncorrected_share():
     return u.iloc[0] if len(u) else None
 
 
-def programme_section(lines, specs):
-    lines += ["## Questions and how far the runs have answered them", ""]
-    any_group = False
+class Planned(NamedTuple):
+    """One spec's finished records (by run key) and, for a spec with sequential groups, the status of
+    each group from :func:`design.plan` (empty for a spec without targets)."""
+    spec: dict
+    records: dict
+    status: dict
+
+
+def planned(specs):
+    """[:class:`Planned`] of every spec: each spec's records read and its design planned once, for
+    every section of the report."""
+    out = []
     for sp in specs:
         rdir = engine.results_dir(sp)
-        if not any(g.get("target") for g in sp["groups"]):
+        recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
+        status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
+        out.append(Planned(sp, recs, status))
+    return out
+
+
+def programme_section(lines, plans):
+    """The table of every sequential question; ``plans``: :func:`planned` of the specs."""
+    lines += ["## Questions and how far the runs have answered them", ""]
+    any_group = False
+    for sp, recs, status in plans:
+        if not status:
             continue
-        recs = design.load_records(sp, rdir)
-        _, status = design.plan(sp, rdir, recs)
         lines.append(f"### `{sp['study']['name']}`: {sp['study']['description']}")
         lines.append("")
         budget = sp["study"].get("budget_cpu_hours")
@@ -111,7 +130,7 @@ def programme_section(lines, specs):
             mean = st["mean"]
             hw = st["halfwidth"]
             cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
-            lines.append(f"| {g['shape']}{_stiffness(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
+            lines.append(f"| {design.shape_label(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
                          f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
                          f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
         lines.append("")
@@ -137,29 +156,19 @@ def effects_section(lines, rows):
     lines.append("")
 
 
-def _status_rows(specs):
+def _status_rows(plans):
     """(spec, group, status, CPU-hours spent) of every sequential group, those of a spec not started
-    yet included (no records: 0 pairs, 0 CPU-hours)."""
+    yet included (no records: 0 pairs, 0 CPU-hours); ``plans``: :func:`planned` of the specs."""
     out = []
-    for sp in specs:
-        rdir = engine.results_dir(sp)
-        if not any(g.get("target") for g in sp["groups"]):
-            continue
-        recs = design.load_records(sp, rdir)
-        _, status = design.plan(sp, rdir, recs)
+    for sp, recs, status in plans:
         for gi, st in status.items():
             out.append((sp, sp["groups"][gi], st, design.cpu_hours(recs)))
     return out
 
 
-def _stiffness(g):
-    """", E = ... Pa" for a group that sets its own Young's modulus (a stiffness series), else ""."""
-    return "" if g.get("youngs_modulus") is None else f", E = {float(g['youngs_modulus']):g} Pa"
-
-
 def _answer(sp, g, st, cpu):
     """One sentence for one sequential question, from its status (no typed numbers)."""
-    what = f"{g['shape']}{_stiffness(g)}, {st['case']} vs exact ({g['protocol']} protocol, `{sp['study']['name']}`)"
+    what = f"{design.shape_label(g)}, {st['case']} vs exact ({g['protocol']} protocol, `{sp['study']['name']}`)"
     n, mean, hw = st["n"], st["mean"], st["halfwidth"]
     if n < 2 or hw != hw:
         budget = sp["study"].get("budget_cpu_hours")
@@ -238,16 +247,16 @@ def _map_check(sp, g, st, maps):
     return text + f": {reading}."
 
 
-def same_spin_pairs(sp, settle_s=200.0):
+def same_spin_pairs(sp, settle_s=200.0, recs=None):
     """Per seed, for each non-exact case of a ``spin_pairing = "same"`` spec: D_case/D_exact (Green-Kubo)
     and the ratio r of the case's translational kinetic energy per unit mass to exact's after
-    ``settle_s`` (the thermal speed squared the gas relaxed to).  {case: [(seed, D ratio, r)]}."""
-    import numpy as np
-
-    rdir = engine.results_dir(sp)
-    if not os.path.isdir(rdir):
-        return {}
-    recs = design.load_records(sp, rdir)
+    ``settle_s`` (the thermal speed squared the gas relaxed to).  {case: [(seed, D ratio, r)]}.
+    ``recs``: the spec's records, if already read."""
+    if recs is None:
+        rdir = engine.results_dir(sp)
+        if not os.path.isdir(rdir):
+            return {}
+        recs = design.load_records(sp, rdir)
     by = {}
     for rec in recs.values():
         if not rec["checks"]["ok"]:
@@ -256,7 +265,7 @@ def same_spin_pairs(sp, settle_s=200.0):
         t = np.asarray(e["t"])
         late = t >= settle_s
         v2 = float(np.mean(np.asarray(e["e_trans"])[late])) / rec["case_body"]["mass"]
-        d = design.run_d(rec, sp["analysis"]["t_eq"])["D"]
+        d = design.run_d(rec, sp["analysis"]["t_eq"], stderr=False)["D"]
         by.setdefault(rec["seed"], {})[rec["case"]] = (d, v2)
     out = {}
     for seed, cases in sorted(by.items()):
@@ -268,17 +277,18 @@ def same_spin_pairs(sp, settle_s=200.0):
     return out
 
 
-def _same_spin_answers(specs):
+def _same_spin_answers(specs, records=None):
     """Bullets for the superseded same-spin runs: the measured effect, the thermal-speed drift the
     spin pairing caused (from the energy records), and the effect with that drift divided out
-    (hard-particle scaling D ~ thermal speed), each a t-interval over seeds."""
+    (hard-particle scaling D ~ thermal speed), each a t-interval over seeds.  ``records``: {spec
+    path: its records}, if already read."""
     from .estimators import t_interval
 
     out = []
     for sp in specs:
         if sp["gas"].get("spin_pairing") != "same" or sp["gas"].get("start") != "equipartition":
             continue
-        for case, vals in same_spin_pairs(sp).items():
+        for case, vals in same_spin_pairs(sp, recs=(records or {}).get(sp["path"])).items():
             if len(vals) < 2:
                 continue
             rel = [v - 1.0 for _, v, _ in vals]
@@ -448,15 +458,17 @@ def plain_words(effect_rows, maps, share):
     return out + said + [""]
 
 
-def answers_section(lines, specs, sph, effect_rows=(), maps=(), share=False):
+def answers_section(lines, plans, sph, effect_rows=(), maps=(), share=False):
+    """The answers, one bullet each; ``plans``: :func:`planned` of the specs."""
     lines += ["## The answers so far", ""]
     d = os.path.join(RESULTS, "granular_gas", "diff_D.csv")
-    rows = _status_rows(specs)
+    specs = [p.spec for p in plans]
+    rows = _status_rows(plans)
     for sp, g, st, cpu in rows:
         lines.append(_answer(sp, g, st, cpu) + _mass_scaling(sp, g, st) + _map_check(sp, g, st, maps))
     if not rows:
         lines.append("* No sequential study has finished pairs yet.")
-    lines += _same_spin_answers(specs)
+    lines += _same_spin_answers(specs, {p.spec["path"]: p.records for p in plans})
     lines += collision_map_answers(maps)
     if os.path.exists(d):
         diff = pd.read_csv(d)
@@ -650,7 +662,8 @@ def sphere_gas_section(lines, sph):
 
 def build():
     specs = effects.committed_specs()
-    collected = effects.collect(specs)        # every record read once: effects.csv, the share, the rates
+    plans = planned(specs)                    # every record read, and every design planned, once
+    collected = effects.collect(specs, {p.spec["path"]: p.records for p in plans})
     values = effects.paired_values(specs, collected)
     rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"), values=values)
     lines = ["# Results", "",
@@ -663,9 +676,9 @@ def build():
     maps = effects_plots.read_collision_maps(RESULTS)
     share = paper_share(specs, values=values)
     lines += plain_words(rows, maps, share)
-    answers_section(lines, specs, sph, rows, maps, share)
+    answers_section(lines, plans, sph, rows, maps, share)
     fig2_section(lines)
-    programme_section(lines, specs)
+    programme_section(lines, plans)
     effects_section(lines, rows)
     collision_map_section(lines, maps, rows)
     rates_section(lines, rates.rows(collected, maps))

@@ -227,20 +227,20 @@ def test_a_study_not_started_is_stated_with_its_budget(tmp_path):
     left out of both sections)."""
     sp = S.load(S.ROOT + "/studies/specs/stiffness.toml")
     sp["study"]["results"] = str(tmp_path / "nowhere")
-    rows = report._status_rows([sp])
+    rows = report._status_rows(report.planned([sp]))
     assert len(rows) == 2 and all(st["n"] == 0 and cpu == 0 and st["state"] == "not started" for _, _, st, cpu in rows)
     from studies import design
     assert design.describe(1, rows[1][1], rows[1][2]).startswith(
         "group 1 (dimer at E = 1e+09 Pa: mass_only vs exact, paired): not started; 0 pairs")
     a = [report._answer(*r) for r in rows]
-    assert a[0].startswith("* **dimer, E = 1e+08 Pa, mass_only vs exact (paired protocol, `stiffness`):** 0 seed pair(s)")
-    assert a[1].startswith("* **dimer, E = 1e+09 Pa, mass_only vs exact")
+    assert a[0].startswith("* **dimer at E = 1e+08 Pa, mass_only vs exact (paired protocol, `stiffness`):** 0 seed pair(s)")
+    assert a[1].startswith("* **dimer at E = 1e+09 Pa, mass_only vs exact")
     assert all(f"not started ({sp['study']['budget_cpu_hours']:g} CPU-hours budgeted)." in x for x in a)
     lines = []
-    report.programme_section(lines, [sp])
+    report.programme_section(lines, report.planned([sp]))
     text = "\n".join(lines)
     assert "### `stiffness`" in text and f"not started; budget {sp['study']['budget_cpu_hours']:g} CPU-hours." in text
-    assert "| dimer, E = 1e+08 Pa, mass_only vs exact, paired | 0 | n/a | n/a | 1.00 % | not started |" in text
+    assert "| dimer at E = 1e+08 Pa, mass_only vs exact, paired | 0 | n/a | n/a | 1.00 % | not started |" in text
     assert not (tmp_path / "nowhere").exists()          # the report reads; it creates nothing
 
 
