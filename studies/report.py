@@ -592,6 +592,16 @@ def collision_map_section(lines, maps, effect_rows):
     lines.append("")
 
 
+def _gas_against_map(n, value, lo, hi, map_value, map_se, num, ival):
+    """Table cells "gas value [CI]" and whether its 95 % interval meets the map's (value ± 1.96 SE):
+    "overlap" or "**apart**"; with fewer than 2 seeds the value alone and no verdict.  ``num`` and
+    ``ival`` format a value and an interval."""
+    if n < 2:
+        return num(value), ""
+    lo_m, hi_m = map_value - 1.96 * map_se, map_value + 1.96 * map_se
+    return f"{num(value)} {ival(lo, hi)}", ("overlap" if lo <= hi_m and lo_m <= hi else "**apart**")
+
+
 def rates_section(lines, rrows):
     lines += ["## Velocity relaxation time: gas against collision map (`studies/rates.py`)", "",
               "A body's velocity autocorrelation starts as exp(−t/τ); in a dilute gas 1/τ is the binary "
@@ -606,12 +616,8 @@ def rates_section(lines, rrows):
     lines += ["| shape | D/d_s | E (Pa) | case | protocol | map τ (s) | gas τ (s), 95 % CI | seeds | gas / map − 1 | 95 % intervals |",
               "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rrows:
-        lo_m, hi_m = r["map_tau"] - 1.96 * r["map_tau_se"], r["map_tau"] + 1.96 * r["map_tau_se"]
-        if r["n_seeds"] >= 2:
-            gas = f"{r['gas_tau']:.2f} [{r['gas_ci_low']:.2f}, {r['gas_ci_high']:.2f}]"
-            ov = "overlap" if r["gas_ci_low"] <= hi_m and lo_m <= r["gas_ci_high"] else "**apart**"
-        else:
-            gas, ov = f"{r['gas_tau']:.2f}", ""
+        gas, ov = _gas_against_map(r["n_seeds"], r["gas_tau"], r["gas_ci_low"], r["gas_ci_high"], r["map_tau"],
+                                   r["map_tau_se"], lambda x: f"{x:.2f}", lambda lo, hi: f"[{lo:.2f}, {hi:.2f}]")
         lines.append(f"| {r['shape']} | {r['overlap']} | {r['youngs_modulus']:.0e} | {r['case']} | {r['protocol']} | "
                      f"{r['map_tau']:.2f} ± {1.96 * r['map_tau_se']:.2f} | {gas} | {r['n_seeds']} | "
                      f"{pct(r['relative'])} | {ov} |")
@@ -627,12 +633,8 @@ def rate_ratio_section(lines, rr):
     lines += ["| shape | D/d_s | E (Pa) | case | protocol | map | gas, first seconds, 95 % CI | pairs | 95 % intervals |",
               "|---|---|---|---|---|---|---|---|---|"]
     for r in rr:
-        lo_m, hi_m = r["map_relative"] - 1.96 * r["map_se"], r["map_relative"] + 1.96 * r["map_se"]
-        if r["n_pairs"] >= 2:
-            gas = f"{pct(r['gas_relative'])} {interval(r['gas_ci_low'], r['gas_ci_high'])}"
-            ov = "overlap" if r["gas_ci_low"] <= hi_m and lo_m <= r["gas_ci_high"] else "**apart**"
-        else:
-            gas, ov = pct(r["gas_relative"]), ""
+        gas, ov = _gas_against_map(r["n_pairs"], r["gas_relative"], r["gas_ci_low"], r["gas_ci_high"],
+                                   r["map_relative"], r["map_se"], pct, interval)
         lines.append(f"| {r['shape']} | {r['overlap']} | {r['youngs_modulus']:.0e} | {r['case']} | {r['protocol']} | "
                      f"{pct(r['map_relative'])} ± {100 * 1.96 * r['map_se']:.2f} % | {gas} | {r['n_pairs']} | {ov} |")
     lines.append("")

@@ -279,3 +279,14 @@ def test_answer_says_whether_the_target_is_met_reached_or_not_yet():
     assert "Target half-width ±1.00 % met." in report._answer(sp, g, dict(st, state="target met"), 18.2)
     no = report._answer(sp, g, dict(st, met=False, halfwidth=0.0138, n_needed=21, cpu_hours_to_target=2.0), 18.2)
     assert "Target ±1.00 % not met yet: half-width 1.38 %" in no and "projects 21 pairs, about 2 CPU-hours more" in no
+
+
+def test_gas_against_map_says_apart_only_when_the_intervals_do_not_meet():
+    """The rate tables' verdict: the gas's 95 % interval against the map's value ± 1.96 SE (map 10 ± 0.98
+    here), decided at the interval ends, and no verdict from one seed."""
+    num, ival = (lambda x: f"{x:.2f}"), (lambda lo, hi: f"[{lo:.2f}, {hi:.2f}]")
+    assert report._gas_against_map(5, 11.5, 11.0, 12.0, 10.0, 0.5, num, ival) == ("11.50 [11.00, 12.00]", "**apart**")
+    assert report._gas_against_map(5, 11.5, 10.97, 12.0, 10.0, 0.5, num, ival)[1] == "overlap"
+    assert report._gas_against_map(5, 8.5, 8.0, 9.03, 10.0, 0.5, num, ival)[1] == "overlap"
+    assert report._gas_against_map(5, 8.5, 8.0, 9.01, 10.0, 0.5, num, ival)[1] == "**apart**"
+    assert report._gas_against_map(1, 8.5, float("nan"), float("nan"), 10.0, 0.5, num, ival) == ("8.50", "")
