@@ -27,8 +27,6 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
 from __future__ import annotations
 
 import json
-import math
-import os
 
 import numpy as np
 
@@ -83,7 +81,9 @@ def window_of(rec, t_cut):
 def run_d(rec, t_eq, stderr=True):
     """Green-Kubo D (m^2/s) of one run record, its jackknife SE over particle groups (m^2/s), and the
     cut (s).  ``stderr=False`` leaves the SE out (``D_stderr`` None): the jackknife refits D once per
-    particle group, ten times the cost of D, and the paired comparisons over seeds never read it."""
+    particle group, eight times the cost of D, and the paired comparisons over seeds never read it
+    (so a record whose jackknife would fail still gives its D there; :mod:`studies.analysis`, which
+    reports the SE, still stops on it)."""
     t_cut, detected = analysis_cut(rec, t_eq)
     w = window_of(rec, t_cut)
     lag = np.arange(len(w["vacf"])) * w["frame_interval"]      # the stored lags are rounded to 7 digits

@@ -24,8 +24,6 @@ import math
 import os
 from typing import NamedTuple
 
-import numpy as np
-
 from . import design, engine
 from . import shapes as shp
 from . import spec as S
@@ -64,12 +62,14 @@ def protocol_label(params):
 
 def collect(specs, records=None):
     """{(pair_key, seed): {case: (D, record)}} and the group facts of every pair key.
-    ``records``: {spec path: :func:`design.load_records` of it}, if already read."""
+    ``records``: :func:`design.load_records` of each spec, in the order of ``specs``, if already read."""
+    if records is not None and len(records) != len(specs):
+        raise ValueError(f"collect: {len(records)} record sets for {len(specs)} specs")
     by, facts = {}, {}
-    for sp in specs:
+    for i, sp in enumerate(specs):
         rdir = engine.results_dir(sp)
-        if records is not None and sp["path"] in records:
-            recs = records[sp["path"]]
+        if records is not None:
+            recs = records[i]
         elif os.path.isdir(rdir):
             recs = design.load_records(sp, rdir)
         else:

@@ -339,8 +339,8 @@ def green_kubo_stderr(lag_s, vacf_groups, weights=None, **kw):
 
     SE^2 = (G-1)/G sum_g (D_-g - mean D_-g)^2, with D_-g the estimate without group g.
     Use with G-1 degrees of freedom (:func:`green_kubo_interval`).  The groups must be
-    disjoint sets of particles (the engine's ``vacf_groups``: 16 groups of 54).
-    """
+    disjoint sets of particles (the run records' ``vacf_groups``: ``reduce.N_GROUPS`` = 8 groups
+    of 108 particles)."""
     _, minus = green_kubo_jackknife(lag_s, vacf_groups, weights, **kw)
     G = len(minus)
     return float(np.sqrt((G - 1) / G * np.sum((minus - minus.mean()) ** 2)))

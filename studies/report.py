@@ -280,15 +280,15 @@ def same_spin_pairs(sp, settle_s=200.0, recs=None):
 def _same_spin_answers(specs, records=None):
     """Bullets for the superseded same-spin runs: the measured effect, the thermal-speed drift the
     spin pairing caused (from the energy records), and the effect with that drift divided out
-    (hard-particle scaling D ~ thermal speed), each a t-interval over seeds.  ``records``: {spec
-    path: its records}, if already read."""
+    (hard-particle scaling D ~ thermal speed), each a t-interval over seeds.  ``records``: each
+    spec's records in the order of ``specs``, if already read."""
     from .estimators import t_interval
 
     out = []
-    for sp in specs:
+    for i, sp in enumerate(specs):
         if sp["gas"].get("spin_pairing") != "same" or sp["gas"].get("start") != "equipartition":
             continue
-        for case, vals in same_spin_pairs(sp, recs=(records or {}).get(sp["path"])).items():
+        for case, vals in same_spin_pairs(sp, recs=None if records is None else records[i]).items():
             if len(vals) < 2:
                 continue
             rel = [v - 1.0 for _, v, _ in vals]
@@ -468,7 +468,7 @@ def answers_section(lines, plans, sph, effect_rows=(), maps=(), share=False):
         lines.append(_answer(sp, g, st, cpu) + _mass_scaling(sp, g, st) + _map_check(sp, g, st, maps))
     if not rows:
         lines.append("* No sequential study has finished pairs yet.")
-    lines += _same_spin_answers(specs, {p.spec["path"]: p.records for p in plans})
+    lines += _same_spin_answers(specs, [p.records for p in plans])
     lines += collision_map_answers(maps)
     if os.path.exists(d):
         diff = pd.read_csv(d)
@@ -665,7 +665,7 @@ def sphere_gas_section(lines, sph):
 def build():
     specs = effects.committed_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
-    collected = effects.collect(specs, {p.spec["path"]: p.records for p in plans})
+    collected = effects.collect(specs, [p.records for p in plans])
     values = effects.paired_values(specs, collected)
     rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"), values=values)
     lines = ["# Results", "",

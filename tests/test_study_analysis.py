@@ -513,6 +513,14 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     assert rates.ratio_rows(effects.collect([sp2, sp]), [m]) == [rr]
     both = {r["case"]: r for r in rates.rows(effects.collect([sp, sp2]), [m])}
     only2 = {r["case"]: r for r in rates.rows(effects.collect([sp2]), [m])}
+    # records read once beforehand (the report's planned pass) give the same rows as collect reading
+    # them itself, matched to their spec by position (both specs here have the path "synthetic")
+    pre = [design.load_records(s, engine.results_dir(s)) for s in (sp, sp2)]
+    assert rates.ratio_rows(effects.collect([sp, sp2], pre), [m]) == [rr]
+    assert {r["case"]: r for r in rates.rows(effects.collect([sp, sp2], pre), [m])} == both
+    assert rates.ratio_rows(effects.collect([sp2, sp], pre[::-1]), [m]) == [rr]
+    with pytest.raises(ValueError, match="1 record sets for 2 specs"):
+        effects.collect([sp, sp2], pre[:1])
     assert both["exact"] == rows["exact"] and both["uncorrected"]["n_seeds"] == 6   # one run per seed,
     assert both["uncorrected"]["gas_tau"] in (rows["uncorrected"]["gas_tau"], only2["uncorrected"]["gas_tau"])  # one key
     sp0 = spec_for(tmp_path / "z", [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}], start="zero_spin")
