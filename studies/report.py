@@ -166,6 +166,14 @@ def _status_rows(plans):
     return out
 
 
+def _cpu_hours_more(h):
+    """"about 3 CPU-hours more", "about 1 CPU-hour more", "under half a CPU-hour more"."""
+    if h < 0.5:
+        return "under half a CPU-hour more"
+    n = max(1, int(h + 0.5))
+    return f"about {n} CPU-hour{'' if n == 1 else 's'} more"
+
+
 def _answer(sp, g, st, cpu):
     """One sentence for one sequential question, from its status (no typed numbers)."""
     what = f"{design.shape_label(g)}, {st['case']} vs exact ({g['protocol']} protocol, `{sp['study']['name']}`)"
@@ -191,7 +199,7 @@ def _answer(sp, g, st, cpu):
                  f"{cpu:.1f} CPU-hours for the whole spec; the spread so far projects "
                  f"{need if need is not None else 'n/a'} pairs")
         if st.get("cpu_hours_to_target") is not None:
-            text += f", about {st['cpu_hours_to_target']:.0f} CPU-hours more for the runs not made yet"
+            text += f", {_cpu_hours_more(st['cpu_hours_to_target'])} for the runs not made yet"
         text += f" (state: {st['state']})."
     return text
 

@@ -290,3 +290,10 @@ def test_gas_against_map_says_apart_only_when_the_intervals_do_not_meet():
     assert report._gas_against_map(5, 8.5, 8.0, 9.03, 10.0, 0.5, num, ival)[1] == "overlap"
     assert report._gas_against_map(5, 8.5, 8.0, 9.01, 10.0, 0.5, num, ival)[1] == "**apart**"
     assert report._gas_against_map(1, 8.5, float("nan"), float("nan"), 10.0, 0.5, num, ival) == ("8.50", "")
+
+
+def test_cpu_hours_more_reads_as_english():
+    assert report._cpu_hours_more(11.4) == "about 11 CPU-hours more"
+    assert report._cpu_hours_more(1.2) == "about 1 CPU-hour more"
+    assert report._cpu_hours_more(0.2) == "under half a CPU-hour more"
+    assert report._cpu_hours_more(0.5) == "about 1 CPU-hour more" and report._cpu_hours_more(2.5) == "about 3 CPU-hours more"
