@@ -13,7 +13,8 @@ Pairs made at different time-step factors (a study that raised ``run.dt_factor``
 earlier seeds, ``run.legacy_dt``) are pooled into one row, one pair per seed (the smaller factor
 where a seed has both): each pair is made at one dt, and a case's D moves by about 3e-4 between
 factors 0.5 and 1.0 (docs/timestep.md, the dimer), so a paired ratio by at most 6e-4, against
-half-widths of >= 5e-3.
+half-widths of >= 5e-3.  A group's own ``dt_factor`` is never pooled; two rows that differ only in
+parameters effects.csv does not show are an error (:func:`paired_values`), never a silent mix.
 ``mass_error`` = m_sum / m_exact - 1 and ``k2_error`` the relative error of the summed clump's
 squared radius of gyration tr(I) / 2m (:mod:`studies.shapes`).
 """
@@ -60,13 +61,32 @@ def protocol_label(params):
     return params["protocol"] + ("_same_spin" if S.spin_pairing_of(params) == "same" else "")
 
 
+class Collected(NamedTuple):
+    """What :func:`collect` read: ``by`` {pair key: {seed: {(case, protocol): (D, record)}}}, ``facts``
+    {pair key: the run parameters}, and ``pooled``, the pair keys made at their spec's own time step
+    (``run.dt_factor``, or ``run.legacy_dt``'s for the seeds run before it was raised): only those
+    pool across time-step factors into one effects row.  A group that sets its own ``dt_factor``
+    (a convergence check) keeps its factor apart."""
+    by: dict
+    facts: dict
+    pooled: set
+
+
+def _own_dt_factors(spec):
+    own = {float(spec["run"]["dt_factor"])}
+    if spec["run"].get("legacy_dt"):
+        own.add(float(spec["run"]["legacy_dt"]["dt_factor"]))
+    return own
+
+
 def collect(specs, records=None):
-    """{(pair_key, seed): {case: (D, record)}} and the group facts of every pair key.
+    """:class:`Collected` of the specs' finished, passing records (D by Green-Kubo).
     ``records``: :func:`design.load_records` of each spec, in the order of ``specs``, if already read."""
     if records is not None and len(records) != len(specs):
         raise ValueError(f"collect: {len(records)} record sets for {len(specs)} specs")
-    by, facts = {}, {}
+    by, facts, pooled = {}, {}, set()
     for i, sp in enumerate(specs):
+        own = _own_dt_factors(sp)
         rdir = engine.results_dir(sp)
         if records is not None:
             recs = records[i]
@@ -79,9 +99,12 @@ def collect(specs, records=None):
                 continue
             p = rec["params"]
             d = design.run_d(rec, sp["analysis"]["t_eq"], stderr=False)["D"]
-            by.setdefault(_pair_key(p), {}).setdefault(p["seed"], {})[(p["case"], protocol_label(p))] = (d, rec)
-            facts[_pair_key(p)] = p
-    return by, facts
+            pk = _pair_key(p)
+            by.setdefault(pk, {}).setdefault(p["seed"], {})[(p["case"], protocol_label(p))] = (d, rec)
+            facts[pk] = p
+            if float(p["run"]["dt_factor"]) in own:
+                pooled.add(pk)
+    return Collected(by, facts, pooled)
 
 
 class Paired(NamedTuple):
@@ -104,20 +127,44 @@ def _row_key(params):
     return _pair_key(p)
 
 
+def _visible(p, case, protocol):
+    """What names an effects row in effects.csv: shape, overlap, protocol, Young's modulus, case."""
+    shape = p["shape"]["definition"]
+    return (shape_name(shape), shape.get("overlap", ""), protocol, p["material"]["youngs_modulus"], case)
+
+
+def _differences(a, b, where=""):
+    """The dotted paths at which two parameter dicts differ."""
+    out = []
+    for k in sorted(set(a) | set(b), key=str):
+        x, y = a.get(k), b.get(k)
+        if isinstance(x, dict) and isinstance(y, dict):
+            out += _differences(x, y, f"{where}{k}.")
+        elif x != y:
+            out.append(f"{where}{k} ({x!r} / {y!r})")
+    return out
+
+
 def paired_values(specs, collected=None):
     """[:class:`Paired`] for every row: the seeds where both the case and exact ran at one time
-    step, pooled over time-step factors (one pair per seed, the smaller factor first).
-    ``collected``: :func:`collect` of ``specs``, if already read."""
-    by, facts = collect(specs) if collected is None else collected
+    step, pooled over their specs' own time-step factors (one pair per seed, the smaller factor
+    first).  ``collected``: :func:`collect` of ``specs``, if already read.
+
+    Raises ValueError when two rows would carry the same shape, overlap, protocol, Young's modulus
+    and case in effects.csv but differ in other run parameters (a run length, a start, a group's own
+    time step): effects.csv has one row per such combination, so one of the two studies must set
+    ``study.report = false`` or change what tells it apart."""
+    by, facts, pooled = collect(specs) if collected is None else collected
     rows = {}       # (row key, case, protocol) -> {seed: (dt_factor, value, exact record, case record, facts)}
     for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
         seeds, dtf = by[pk], facts[pk]["run"]["dt_factor"]
+        rk = _row_key(facts[pk]) if pk in pooled else pk
         for seed, cases in seeds.items():
             ex = cases.get(("exact", "paired"))
             if ex is None:
                 continue
             for (case, protocol), cc in cases.items():
-                slot = rows.setdefault((_row_key(facts[pk]), case, protocol), {}) if case != "exact" else None
+                slot = rows.setdefault((rk, case, protocol), {}) if case != "exact" else None
                 if slot is not None and seed not in slot:
                     slot[seed] = (dtf, cc[0] / ex[0] - 1.0, ex[1], cc[1], facts[pk])
     out = []
@@ -129,6 +176,16 @@ def paired_values(specs, collected=None):
             out.append(Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
                               {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
                               [(state_key(slot[s][2]["params"]), s) for s in used]))
+    seen = {}
+    for r in out:
+        v = _visible(r.facts, r.case, r.protocol)
+        if v in seen:
+            diff = "; ".join(_differences(seen[v].facts, r.facts)) or "the time-step factor's pooling"
+            raise ValueError(f"effects: two studies give the row {v} (shape, overlap, protocol, E, case) with "
+                             f"other run parameters: {diff}.  effects.csv has one row per such combination: set "
+                             "`report = false` in the [study] table of the one that is not part of the results, "
+                             "or tell them apart by one of those columns")
+        seen[v] = r
     return out
 
 
@@ -169,11 +226,15 @@ def write(specs, path, values=None):
 
 
 def committed_specs():
-    """Every spec under studies/specs/ except the test scale."""
+    """Every spec under studies/specs/ that the results read: all but those with ``study.report =
+    false`` (the test and quick scales, whose results are not committed, and the first version's
+    paper scale, reported from results/granular_gas/*.csv)."""
     out = []
     for f in sorted(os.listdir(S.SPEC_DIR)):
-        if f.endswith(".toml") and f != "test.toml":
-            out.append(S.load(os.path.join(S.SPEC_DIR, f)))
+        if f.endswith(".toml"):
+            sp = S.load(os.path.join(S.SPEC_DIR, f))
+            if sp["study"]["report"]:
+                out.append(sp)
     return out
 
 

@@ -57,7 +57,7 @@ def _per_seed(collected, maps):
     started in equilibrium that have a map.  The pair key (:func:`studies.effects.collect`'s) keeps
     runs of one seed made with other parameters (another run length, say) apart: a case's run is
     paired only with the exact run of its own pair key and dt factor."""
-    by, facts = collected
+    by, facts = collected.by, collected.facts
     per = {}
     for pk in by:
         p = facts[pk]

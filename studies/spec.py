@@ -45,7 +45,7 @@ SCHEMA = {
     "study": {"name": (str, True, None, None), "description": (str, False, "", None),
               "results": (str, True, None, None), "yade": (str, True, None, "yade"),
               "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos"),
-              "schedule": (str, False, "in_order", "schedule")},
+              "schedule": (str, False, "in_order", "schedule"), "report": (bool, False, True, None)},
     "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
                  "poisson": (_NUM, True, None, "poisson")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
@@ -93,7 +93,7 @@ def _flat(typ):
 
 
 def _check_value(where, v, typ, check):
-    if isinstance(v, bool) or not isinstance(v, _flat(typ)):
+    if (isinstance(v, bool) and bool not in _flat(typ)) or not isinstance(v, _flat(typ)):
         raise SpecError(f"{where}: expected {_tname(typ)}, got {v!r}")
     if isinstance(v, float) and not math.isfinite(v):
         raise SpecError(f"{where}: must be finite, got {v!r}")
@@ -133,7 +133,7 @@ def _check_value(where, v, typ, check):
 
 
 def _tname(typ):
-    names = {int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a table"}
+    names = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a table"}
     ts = _flat(typ)
     return " or ".join(dict.fromkeys(names[t] for t in ts if not (t is int and float in ts)))
 

@@ -370,6 +370,42 @@ def test_effects_pool_pairs_across_a_raised_time_step_one_pair_per_seed(tmp_path
     assert pv2.seeds == [2] and pv2.values == pytest.approx([-0.10], abs=1e-6)
 
 
+def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_cannot_tell_apart(tmp_path):
+    """A group with its own dt_factor (a convergence check) is no legacy seed: its pairs are not
+    pooled into the study's row (before: they silently replaced the main pairs of the same seeds,
+    the smaller factor first).  And two studies of one shape, overlap, protocol, E and case that
+    differ in another run parameter (run length here, the quick scale beside the real study) would
+    give two rows that effects.csv cannot tell apart: an error naming the parameter, not two rows
+    (before: both were written, and the report's look-ups took the first)."""
+    sp = spec_for(tmp_path / "a", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]},
+                                   {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21],
+                                    "dt_factor": 0.25}])
+    assert sorted({r["params"]["run"]["dt_factor"] for r in S.runs(sp)}) == [0.25, 1.0]
+    rng = np.random.default_rng(5)
+    base = {s: frames_of(rng, 48, 250.0, 0.5) for s in (20, 21)}
+    for run in S.runs(sp):
+        _scaled_record(engine.results_dir(sp), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.95)
+    with pytest.raises(ValueError, match=r"run\.dt_factor \(0\.25 / 1\.0\)"):
+        effects.paired_values([sp])
+    main = spec_for(tmp_path / "a", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]}])
+    (pv,) = effects.paired_values([main])           # the study alone: its own pairs at dt 1.0
+    assert pv.seeds == [20, 21] and pv.facts["run"]["dt_factor"] == 1.0
+    short = spec_for(tmp_path / "c", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]}])
+    short["run"]["t_end"] = 200.0
+    for run in S.runs(short):
+        _scaled_record(engine.results_dir(short), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.9)
+    with pytest.raises(ValueError, match=r"run\.t_end \(\d+\.0 / \d+\.0\).*report = false"):
+        effects.effect_rows([main, short])
+
+
+def test_committed_specs_are_the_programme():
+    """The report reads every committed spec but the scratch and first-version scales, whose runs
+    (make run's quick scale among them) would otherwise enter effects.csv beside the real study."""
+    names = {sp["study"]["name"] for sp in effects.committed_specs()}
+    assert {"dimer_paired", "dimer_equal_energy", "shapes", "sphere_gas", "stiffness"} <= names
+    assert not names & {"quick", "test", "paper"}
+
+
 def _fake_execute_logging_to(log_path):
     def fake_execute(run, settings):
         import time
