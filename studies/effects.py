@@ -63,20 +63,22 @@ def protocol_label(params):
 
 class Collected(NamedTuple):
     """What :func:`collect` read: ``by`` {pair key: {seed: {(case, protocol): (D, record)}}}, ``facts``
-    {pair key: the run parameters}, and ``pooled``, the pair keys made at their spec's own time step
-    (``run.dt_factor``, or ``run.legacy_dt``'s for the seeds run before it was raised): only those
-    pool across time-step factors into one effects row.  A group that sets its own ``dt_factor``
-    (a convergence check) keeps its factor apart."""
+    {pair key: the run parameters}, ``pooled``, the (pair key, seed) made at their spec's own time
+    step (``run.dt_factor``, or ``run.legacy_dt``'s for a seed below its ``below_seed``): only those
+    pool across time-step factors into one effects row, a group's own ``dt_factor`` (a convergence
+    check) stays apart; and ``studies`` {pair key: names of the specs whose records it came from}."""
     by: dict
     facts: dict
     pooled: set
+    studies: dict
 
 
-def _own_dt_factors(spec):
-    own = {float(spec["run"]["dt_factor"])}
-    if spec["run"].get("legacy_dt"):
-        own.add(float(spec["run"]["legacy_dt"]["dt_factor"]))
-    return own
+def _at_own_dt(spec, params):
+    """Is the run made at its spec's own time step: ``run.dt_factor``, or the legacy factor for a
+    seed below ``run.legacy_dt.below_seed``?  (A group can set ``dt_factor`` equal to either.)"""
+    dtf, leg = float(params["run"]["dt_factor"]), spec["run"].get("legacy_dt")
+    return dtf == float(spec["run"]["dt_factor"]) or bool(
+        leg and params["seed"] < leg["below_seed"] and dtf == float(leg["dt_factor"]))
 
 
 def collect(specs, records=None):
@@ -84,9 +86,8 @@ def collect(specs, records=None):
     ``records``: :func:`design.load_records` of each spec, in the order of ``specs``, if already read."""
     if records is not None and len(records) != len(specs):
         raise ValueError(f"collect: {len(records)} record sets for {len(specs)} specs")
-    by, facts, pooled = {}, {}, set()
+    by, facts, pooled, studies = {}, {}, set(), {}
     for i, sp in enumerate(specs):
-        own = _own_dt_factors(sp)
         rdir = engine.results_dir(sp)
         if records is not None:
             recs = records[i]
@@ -102,9 +103,10 @@ def collect(specs, records=None):
             pk = _pair_key(p)
             by.setdefault(pk, {}).setdefault(p["seed"], {})[(p["case"], protocol_label(p))] = (d, rec)
             facts[pk] = p
-            if float(p["run"]["dt_factor"]) in own:
-                pooled.add(pk)
-    return Collected(by, facts, pooled)
+            studies.setdefault(pk, set()).add(sp["study"]["name"])
+            if _at_own_dt(sp, p):
+                pooled.add((pk, p["seed"]))
+    return Collected(by, facts, pooled, studies)
 
 
 class Paired(NamedTuple):
@@ -145,6 +147,13 @@ def _differences(a, b, where=""):
     return out
 
 
+def _pair_facts(params):
+    """The run parameters a pair key is made of (:func:`_pair_key`'s), as a dict."""
+    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed")}
+    p["gas"] = {k: v for k, v in p["gas"].items() if k != "spin_pairing"}
+    return p
+
+
 def paired_values(specs, collected=None):
     """[:class:`Paired`] for every row: the seeds where both the case and exact ran at one time
     step, pooled over their specs' own time-step factors (one pair per seed, the smaller factor
@@ -152,40 +161,50 @@ def paired_values(specs, collected=None):
 
     Raises ValueError when two rows would carry the same shape, overlap, protocol, Young's modulus
     and case in effects.csv but differ in other run parameters (a run length, a start, a group's own
-    time step): effects.csv has one row per such combination, so one of the two studies must set
-    ``study.report = false`` or change what tells it apart."""
-    by, facts, pooled = collect(specs) if collected is None else collected
+    time step), naming the studies and the parameters: effects.csv has one row per such
+    combination, never two that a reader cannot tell apart."""
+    by, facts, pooled, studies = collect(specs) if collected is None else collected
     rows = {}       # (row key, case, protocol) -> {seed: (dt_factor, value, exact record, case record, facts)}
+    row_pks = {}    # (row key, case, protocol) -> the pair keys of its pairs
     for pk in sorted(by, key=lambda k: facts[k]["run"]["dt_factor"]):
         seeds, dtf = by[pk], facts[pk]["run"]["dt_factor"]
-        rk = _row_key(facts[pk]) if pk in pooled else pk
         for seed, cases in seeds.items():
             ex = cases.get(("exact", "paired"))
             if ex is None:
                 continue
+            rk = _row_key(facts[pk]) if (pk, seed) in pooled else pk
             for (case, protocol), cc in cases.items():
-                slot = rows.setdefault((rk, case, protocol), {}) if case != "exact" else None
-                if slot is not None and seed not in slot:
+                if case == "exact":
+                    continue
+                slot = rows.setdefault((rk, case, protocol), {})
+                if seed not in slot:
                     slot[seed] = (dtf, cc[0] / ex[0] - 1.0, ex[1], cc[1], facts[pk])
-    out = []
+                    row_pks.setdefault((rk, case, protocol), set()).add(pk)
+    out, seen = [], {}
     for rk in dict.fromkeys(k[0] for k in rows):            # first-seen order of the rows
         for (_, case, protocol) in sorted(k for k in rows if k[0] == rk):
             slot = rows[(rk, case, protocol)]
             used = sorted(slot)
             recs = [r for s in used for r in slot[s][2:4]]
-            out.append(Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
-                              {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
-                              [(state_key(slot[s][2]["params"]), s) for s in used]))
-    seen = {}
-    for r in out:
-        v = _visible(r.facts, r.case, r.protocol)
-        if v in seen:
-            diff = "; ".join(_differences(seen[v].facts, r.facts)) or "the time-step factor's pooling"
-            raise ValueError(f"effects: two studies give the row {v} (shape, overlap, protocol, E, case) with "
-                             f"other run parameters: {diff}.  effects.csv has one row per such combination: set "
-                             "`report = false` in the [study] table of the one that is not part of the results, "
-                             "or tell them apart by one of those columns")
-        seen[v] = r
+            row = Paired(slot[used[0]][4], case, protocol, [slot[s][1] for s in used],
+                         {r["yade_version"] for r in recs}, {r["rot_algorithm"] for r in recs}, used,
+                         [(state_key(slot[s][2]["params"]), s) for s in used])
+            v = _visible(row.facts, case, protocol)
+            names = sorted(set().union(*(studies[pk] for pk in row_pks[(rk, case, protocol)])))
+            if v in seen:
+                first, first_names = seen[v]
+                diff = "; ".join(_differences(_pair_facts(first.facts), _pair_facts(row.facts)))
+                src = (f"both from {', '.join(names)}" if names == first_names else
+                       f"from {', '.join(first_names)} and from {', '.join(names)}")
+                raise ValueError(
+                    f"effects: two rows of {case} vs exact, {protocol}, {v[0]} (overlap {v[1]}), E = {v[3]:g} Pa, "
+                    f"which effects.csv cannot tell apart, {src}, differing in "
+                    f"{diff or 'the seeds made at a time step not their own'}.  "
+                    "Set `in_results = false` in the [study] table of the spec whose runs are not part of the "
+                    "results; a group that overrides one of these answers another question: give it a spec of "
+                    "its own with `in_results = false`")
+            seen[v] = (row, names)
+            out.append(row)
     return out
 
 
@@ -225,21 +244,21 @@ def write(specs, path, values=None):
     return rows
 
 
-def committed_specs():
-    """Every spec under studies/specs/ that the results read: all but those with ``study.report =
-    false`` (the test and quick scales, whose results are not committed, and the first version's
-    paper scale, reported from results/granular_gas/*.csv)."""
+def results_specs():
+    """Every spec under studies/specs/ whose run records the results read: all but those with
+    ``study.in_results = false`` (the test and quick scales, whose runs are not committed, and the
+    first version's paper scale, whose tables results/granular_gas/*.csv are read as such)."""
     out = []
     for f in sorted(os.listdir(S.SPEC_DIR)):
         if f.endswith(".toml"):
             sp = S.load(os.path.join(S.SPEC_DIR, f))
-            if sp["study"]["report"]:
+            if sp["study"]["in_results"]:
                 out.append(sp)
     return out
 
 
-if __name__ == "__main__":       # python -m studies.effects: results/effects.csv from every committed spec
-    rows = write(committed_specs(), os.path.join(S.ROOT, "results", "effects.csv"))
+if __name__ == "__main__":       # python -m studies.effects: results/effects.csv from every spec in the results
+    rows = write(results_specs(), os.path.join(S.ROOT, "results", "effects.csv"))
     print(f"[effects] {len(rows)} rows in results/effects.csv")
     for r in rows:
         print(f"  {r['shape']} {r['overlap']} {r['protocol']} E={r['youngs_modulus']:g} {r['case']}: "

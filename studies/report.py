@@ -4,7 +4,8 @@
 
 Reads ``results/granular_gas/*.csv`` (the paper's Fig. 2, paired and equal-energy protocols),
 ``results/sphere_gas.csv`` (the sphere gas against kinetic theory, :mod:`studies.sphere_gas`),
-the committed run records of every spec under ``studies/specs/`` (through
+the run records of every spec under ``studies/specs/`` but those with ``study.in_results = false``
+(:func:`studies.effects.results_specs`; through
 :mod:`studies.effects` and :mod:`studies.design`), and states, for each question of the paper,
 the answer its interval supports, or the half-width reached, the CPU-hours spent and the
 projected number of seed pairs where the target is not met yet.
@@ -671,7 +672,7 @@ def sphere_gas_section(lines, sph):
 
 
 def build():
-    specs = effects.committed_specs()
+    specs = effects.results_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
     collected = effects.collect(specs, [p.records for p in plans])
     values = effects.paired_values(specs, collected)

@@ -45,7 +45,7 @@ SCHEMA = {
     "study": {"name": (str, True, None, None), "description": (str, False, "", None),
               "results": (str, True, None, None), "yade": (str, True, None, "yade"),
               "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos"),
-              "schedule": (str, False, "in_order", "schedule"), "report": (bool, False, True, None)},
+              "schedule": (str, False, "in_order", "schedule"), "in_results": (bool, False, True, None)},
     "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
                  "poisson": (_NUM, True, None, "poisson")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),

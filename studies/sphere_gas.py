@@ -3,7 +3,8 @@
 Issue 12's hard-particle question compares the reference sphere gas with Chapman-Enskog theory at
 each contact stiffness.  This module reads what the runs left (no live simulation):
 
-* the run records of every committed spec whose case is ``spheres`` (D per run by the study's
+* the run records whose case is ``spheres`` of every spec in the results
+  (:func:`studies.effects.results_specs`; D per run by the study's
   Green-Kubo estimator, :func:`studies.design.run_d`; the translational temperature
   kT = (2/3) <E_trans> / N over the analysed window), grouped by gas (Young's modulus, sphere
   size and mass, box, N);
@@ -148,8 +149,8 @@ def read(path=os.path.join(RESULTS, "sphere_gas.csv")):
 
 
 if __name__ == "__main__":
-    from .effects import committed_specs
-    rs = write(committed_specs(), log=lambda s: print(s, file=sys.stderr))
+    from .effects import results_specs
+    rs = write(results_specs(), log=lambda s: print(s, file=sys.stderr))
     for r in rs:
         print(f"{r['source']}: E = {r['youngs_modulus']:g} Pa, D = {r['D']:.4g} [{r['ci_low']:.4g}, {r['ci_high']:.4g}] "
               f"m^2/s; Hertz-Boltzmann {r['d_hertz_boltzmann']:.4g} (ratio {r['ratio_hertz']:.4f}), "

@@ -394,14 +394,26 @@ def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_c
     short["run"]["t_end"] = 200.0
     for run in S.runs(short):
         _scaled_record(engine.results_dir(short), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.9)
-    with pytest.raises(ValueError, match=r"run\.t_end \(\d+\.0 / \d+\.0\).*report = false"):
+    short["study"]["name"] = "short"
+    with pytest.raises(ValueError, match=r"apart, from dimer_paired and from short, differing in run\.t_end \(\d+\.0 / \d+\.0\)\.  Set `in_results = false`"):
         effects.effect_rows([main, short])
+    # the legacy factor counts as the study's own only below below_seed: a convergence group at the
+    # legacy factor 0.5 on seeds 20-21 (ratio 0.80) must not replace the main pairs (ratio 0.95)
+    leg = spec_for(tmp_path / "d", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]},
+                                    {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21],
+                                     "dt_factor": 0.5}])
+    assert leg["run"]["legacy_dt"] == {"below_seed": 17, "dt_factor": 0.5}
+    for run in S.runs(leg):
+        _scaled_record(engine.results_dir(leg), run, base[run["seed"]], 1.0 if run["case"] == "exact" else
+                       (0.95 if run["params"]["run"]["dt_factor"] == 1.0 else 0.80))
+    with pytest.raises(ValueError, match=r"apart, both from dimer_paired, differing in run\.dt_factor \(0\.5 / 1\.0\)"):
+        effects.paired_values([leg])
 
 
-def test_committed_specs_are_the_programme():
+def test_results_specs_are_the_programme():
     """The report reads every committed spec but the scratch and first-version scales, whose runs
     (make run's quick scale among them) would otherwise enter effects.csv beside the real study."""
-    names = {sp["study"]["name"] for sp in effects.committed_specs()}
+    names = {sp["study"]["name"] for sp in effects.results_specs()}
     assert {"dimer_paired", "dimer_equal_energy", "shapes", "sphere_gas", "stiffness"} <= names
     assert not names & {"quick", "test", "paper"}
 

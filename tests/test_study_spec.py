@@ -75,8 +75,8 @@ def _bad(mutate):
     (lambda r: r["run"].update(legacy_dt={"below_seed": 0, "dt_factor": 0.5}), "run.legacy_dt.below_seed: must be > 0"),
     (lambda r: r["run"].update(legacy_dt={"below": 4, "dt_factor": 0.5}), "run.legacy_dt.below: unknown key"),
     (lambda r: r["study"].update(schedule="breadth_first"), "study.schedule: must be one of in_order, round_robin"),
-    (lambda r: r["study"].update(report="no"), "study.report: expected"),
-    (lambda r: r["study"].update(report=0), "study.report: expected"),
+    (lambda r: r["study"].update(in_results="no"), "study.in_results: expected true or false"),
+    (lambda r: r["study"].update(in_results=0), "study.in_results: expected true or false"),
 ])
 def test_bad_spec_names_the_key(mutate, message):
     assert message in _bad(mutate)
