@@ -707,5 +707,18 @@ def build():
     return text
 
 
+def main():
+    """``python -m studies.report``: 0 on success; 1 with the reason on stderr, no traceback, when
+    the results cannot be reported as they are (two effects rows a reader could not tell apart, a
+    record without a Green-Kubo D, a bad spec)."""
+    try:
+        text = build()
+    except ValueError as e:         # SpecError is one
+        print(f"[report] error: {e}", file=sys.stderr)
+        return 1
+    sys.stdout.write(text)
+    return 0
+
+
 if __name__ == "__main__":
-    sys.stdout.write(build())
+    sys.exit(main())

@@ -370,7 +370,7 @@ def test_effects_pool_pairs_across_a_raised_time_step_one_pair_per_seed(tmp_path
     assert pv2.seeds == [2] and pv2.values == pytest.approx([-0.10], abs=1e-6)
 
 
-def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_cannot_tell_apart(tmp_path):
+def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_cannot_tell_apart(tmp_path, monkeypatch, capsys):
     """A group with its own dt_factor (a convergence check) is no legacy seed: its pairs are not
     pooled into the study's row (before: they silently replaced the main pairs of the same seeds,
     the smaller factor first).  And two studies of one shape, overlap, protocol, E and case that
@@ -397,6 +397,14 @@ def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_c
     short["study"]["name"] = "short"
     with pytest.raises(ValueError, match=r"apart, from dimer_paired and from short, differing in run\.t_end \(\d+\.0 / \d+\.0\)\.  Set `in_results = false`"):
         effects.effect_rows([main, short])
+    # the report's command says so in one line and writes neither effects.csv nor README.md
+    from studies import report
+    monkeypatch.setattr(effects, "results_specs", lambda: [main, short])
+    monkeypatch.setattr(report, "RESULTS", str(tmp_path / "results_out"))
+    assert report.main() == 1
+    err = capsys.readouterr().err
+    assert err.startswith("[report] error: effects: two rows of mass_only vs exact") and "Traceback" not in err
+    assert not (tmp_path / "results_out").exists()
     # the legacy factor counts as the study's own only below below_seed: a convergence group at the
     # legacy factor 0.5 on seeds 20-21 (ratio 0.80) must not replace the main pairs (ratio 0.95)
     leg = spec_for(tmp_path / "d", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]},
