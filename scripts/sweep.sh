@@ -1,0 +1,86 @@
+#!/bin/bash
+# Long study sweeps across sessions and machines (docs/studies.md, "Sweeps across sessions").
+#
+# A sweep runs from its own clone of this repository's committed HEAD (a clone, not a worktree:
+# the Debian 13 root that runs YADE 2025.2 bind-mounts the tree and needs its .git), so edits here
+# never touch runs in flight, and every record carries a clean commit.  Its finished records are
+# copied back with `collect` and committed; `start` on any machine resumes from what is committed.
+#
+#   scripts/sweep.sh start SPEC [DIR]     refresh DIR to HEAD (keeping its finished records), set it
+#                                         up, and start the sweep in the background (log: DIR/sweep.log)
+#   scripts/sweep.sh refresh SPEC [DIR]   only the first step
+#   scripts/sweep.sh collect SPEC [DIR]   copy DIR's finished records (never over one already here)
+#                                         and its manifest into this tree, to commit
+#   scripts/sweep.sh stop SPEC            stop this machine's sweeps of SPEC (their YADE runs die with
+#                                         them; a run in flight is lost and runs again next time)
+#
+# SPEC: a spec name (studies/specs/SPEC.toml).  DIR: default ../sweep-SPEC beside this repository.
+# WORKERS (default 1): Dask workers of the sweep, one YADE run each.
+set -euo pipefail
+usage() { sed -n '9,18p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+[ $# -ge 2 ] || usage
+cmd=$1
+name=$(basename "$2" .toml)
+root=$(cd "$(dirname "$0")/.." && pwd)
+dir=${3:-$root/../sweep-$name}
+specfile=studies/specs/$name.toml
+[ -f "$root/$specfile" ] || { echo "[sweep] no spec $specfile" >&2; exit 2; }
+results=$(sed -n 's/^results *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n 1)
+yade=$(sed -n 's/^yade *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n 1)
+[ -n "$results" ] || { echo "[sweep] $specfile has no study.results" >&2; exit 2; }
+
+# a driver holds an flock on its results' .driver.lock while it runs (studies.engine.sweep)
+running() { [ -f "$dir/$results/.driver.lock" ] && ! flock -n "$dir/$results/.driver.lock" true; }
+
+refresh() {
+    if [ ! -d "$dir/.git" ]; then
+        git clone -q "$root" "$dir"
+        echo "[sweep] cloned $root into $dir"
+    fi
+    local keep
+    keep=$(mktemp -d)
+    cp -p "$dir/$results/runs/"*.json "$keep/" 2>/dev/null || true
+    git -C "$dir" fetch -q "$root" HEAD
+    git -C "$dir" checkout -q --detach FETCH_HEAD 2>/dev/null || {
+        git -C "$dir" reset -q --hard
+        git -C "$dir" clean -fdq -- "$results"
+        git -C "$dir" checkout -q --detach FETCH_HEAD
+    }
+    git -C "$dir" reset -q --hard
+    mkdir -p "$dir/$results/runs"
+    cp -np "$keep/"*.json "$dir/$results/runs/" 2>/dev/null || true
+    rm -rf "$keep"
+    echo "[sweep] $dir at $(git -C "$dir" rev-parse --short HEAD), $(ls "$dir/$results/runs" | wc -l) finished records of $name"
+}
+
+case $cmd in
+    refresh)
+        running && { echo "[sweep] a sweep of $name is running in $dir: stop it first" >&2; exit 1; }
+        refresh ;;
+    start)
+        running && { echo "[sweep] a sweep of $name is already running in $dir" >&2; exit 1; }
+        refresh
+        (cd "$dir" && VENV=.venv bash scripts/setup.sh >/dev/null)
+        if [ "$yade" != "2023.02a" ]; then
+            (cd "$dir" && bash scripts/debian13.sh build >/dev/null &&
+                bash scripts/debian13.sh run env VENV=.venv-debian13 bash scripts/setup.sh >/dev/null)
+        fi
+        cd "$dir"
+        OMP_NUM_THREADS=1 nohup setsid nice -n 10 .venv/bin/python -m studies sweep "$specfile" \
+            --workers "${WORKERS:-1}" --progress-every 300 > sweep.log 2>&1 < /dev/null &
+        echo "[sweep] started $name in $dir (log: $dir/sweep.log)" ;;
+    collect)
+        [ -d "$dir/$results/runs" ] || { echo "[sweep] no records in $dir/$results/runs" >&2; exit 1; }
+        mkdir -p "$root/$results/runs"
+        n=0
+        for f in "$dir/$results/runs/"*.json; do
+            [ -e "$f" ] || continue
+            t="$root/$results/runs/$(basename "$f")"
+            [ -e "$t" ] || { cp -p "$f" "$t"; n=$((n + 1)); }
+        done
+        [ -f "$dir/$results/manifest.csv" ] && cp -p "$dir/$results/manifest.csv" "$root/$results/manifest.csv"
+        echo "[sweep] $n new records of $name in $results/runs" ;;
+    stop)
+        pkill -f "studies sweep $specfile" && echo "[sweep] stopped $name" || echo "[sweep] no sweep of $name running" ;;
+    *) usage ;;
+esac

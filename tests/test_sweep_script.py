@@ -1,0 +1,90 @@
+"""scripts/sweep.sh, the sweeps across sessions: ``refresh`` brings a sweep's clone to the committed
+HEAD and keeps every finished record it holds, ``collect`` copies new records back and never
+overwrites one, and both refuse to touch a clone whose driver is running.  All in a throwaway
+clone of this repository (nothing here runs YADE)."""
+from __future__ import annotations
+
+import fcntl
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = "sphere_gas"                     # a spec with committed records
+RUNS = Path("results/sphere_gas/runs")
+
+
+def _git(repo, *args):
+    return subprocess.run(["git", "-C", str(repo), "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                          check=True, capture_output=True, text=True).stdout.strip()
+
+
+def _sweep(repo, *args):
+    return subprocess.run(["bash", str(repo / "scripts" / "sweep.sh"), *args], capture_output=True, text=True)
+
+
+@pytest.fixture
+def repo(tmp_path):
+    r = tmp_path / "repo"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(r)], check=True)
+    shutil.copy(ROOT / "scripts" / "sweep.sh", r / "scripts" / "sweep.sh")   # the script as it is here
+    _git(r, "add", "scripts/sweep.sh")
+    _git(r, "commit", "-q", "--allow-empty", "-m", "the script under test")
+    return r
+
+
+def test_refresh_keeps_finished_records_and_collect_never_overwrites(repo, tmp_path):
+    sw = tmp_path / "sw"
+    committed = sorted(p.name for p in (repo / RUNS).glob("*.json"))
+    assert committed, "the spec needs committed records for this test"
+    p = _sweep(repo, "refresh", SPEC, str(sw))
+    assert p.returncode == 0, p.stderr
+    assert _git(sw, "rev-parse", "HEAD") == _git(repo, "rev-parse", "HEAD")
+    assert sorted(q.name for q in (sw / RUNS).glob("*.json")) == committed
+
+    # the sweep finishes two runs; one is collected and committed, then the code moves on
+    (sw / RUNS / "new-s98.json").write_text(json.dumps({"seed": 98}))
+    (sw / RUNS / "new-s99.json").write_text(json.dumps({"seed": 99}))
+    (sw / RUNS / committed[0]).write_text("changed in the sweep")       # must never come back
+    (sw / RUNS.parent / "manifest.csv").write_text("key,status\nx,done\n")
+    p = _sweep(repo, "collect", SPEC, str(sw))
+    assert p.returncode == 0 and "2 new records of sphere_gas" in p.stdout, p.stdout + p.stderr
+    assert json.loads((repo / RUNS / "new-s98.json").read_text()) == {"seed": 98}
+    assert (repo / RUNS / committed[0]).read_text() != "changed in the sweep"
+    assert (repo / RUNS.parent / "manifest.csv").read_text() == "key,status\nx,done\n"
+    (repo / RUNS / "new-s99.json").unlink()                            # only s98 is committed
+    (repo / "NOTE").write_text("a later commit\n")
+    _git(repo, "add", "-A")
+    _git(repo, "commit", "-qm", "results and code")
+    (sw / RUNS / "new-s100.json").write_text(json.dumps({"seed": 100}))  # finished after the collect
+
+    # refresh: the new HEAD (its s98 is now tracked: a plain checkout would refuse), every record kept
+    p = _sweep(repo, "refresh", SPEC, str(sw))
+    assert p.returncode == 0, p.stderr
+    assert _git(sw, "rev-parse", "HEAD") == _git(repo, "rev-parse", "HEAD") and (sw / "NOTE").exists()
+    have = {q.name for q in (sw / RUNS).glob("*.json")}
+    assert {"new-s98.json", "new-s99.json", "new-s100.json"} | set(committed) == have
+    assert _git(sw, "status", "--porcelain", "--", "studies", "clumpprops", "yade_scripts") == ""
+    assert (sw / RUNS / committed[0]).read_text() == (repo / RUNS / committed[0]).read_text()
+
+
+def test_a_running_sweep_is_left_alone(repo, tmp_path):
+    sw = tmp_path / "sw"
+    assert _sweep(repo, "refresh", SPEC, str(sw)).returncode == 0
+    lock = sw / RUNS.parent / ".driver.lock"
+    with open(lock, "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)                   # as studies.engine.sweep holds it
+        for cmd in ("refresh", "start"):
+            p = _sweep(repo, cmd, SPEC, str(sw))
+            assert p.returncode == 1 and "running in" in p.stderr, (cmd, p.stderr)
+    assert _sweep(repo, "refresh", SPEC, str(sw)).returncode == 0      # released: free again
+
+
+def test_bad_use_is_refused():
+    p = _sweep(ROOT, "start", "no_such_spec")
+    assert p.returncode == 2 and "no spec studies/specs/no_such_spec.toml" in p.stderr
+    p = _sweep(ROOT, "start")
+    assert p.returncode == 2 and "refresh SPEC [DIR]" in p.stderr
