@@ -151,13 +151,23 @@ def plot_all(results, log=print):
     sph = _read(os.path.join(results, "sphere_gas.csv"))
     if sph is not None and len(sph):
         fig, ax = plt.subplots(figsize=(7, 4.5))
-        e = sph["youngs_modulus"].to_numpy()
-        for name, col, lab in (("hertz", "tab:blue", "measured / Hertz-sphere Boltzmann D"),
-                               ("hard", "tab:gray", "measured / hard-sphere Boltzmann D")):
-            y = sph[f"ratio_{name}"].to_numpy()
-            yerr = np.vstack([y - sph[f"ratio_{name}_ci_low"].to_numpy(), sph[f"ratio_{name}_ci_high"].to_numpy() - y])
-            ax.errorbar(e, y, yerr=yerr, fmt="o", capsize=3, color=col, label=lab)
-        ax.plot(e, sph["d_hertz_boltzmann"] / sph["d_hard_boltzmann"], "kx", label="theory: Hertz / hard spheres")
+        sources = list(dict.fromkeys(sph["source"]))
+        # one marker per source (the first version's OLS runs open, the Green-Kubo runs filled), each
+        # source a little apart on the E axis so that two at one stiffness do not hide each other
+        for i, src in enumerate(sources):
+            q = sph[sph["source"] == src]
+            e = q["youngs_modulus"].to_numpy() * 10 ** (0.025 * (i - (len(sources) - 1) / 2))
+            gk = (q["estimator"] == "green_kubo").all()
+            mk = "o" if gk else "s"
+            for name, col, lab in (("hertz", "tab:blue", "measured / Hertz-sphere Boltzmann D"),
+                                   ("hard", "tab:gray", "measured / hard-sphere Boltzmann D")):
+                y = q[f"ratio_{name}"].to_numpy()
+                yerr = np.vstack([y - q[f"ratio_{name}_ci_low"].to_numpy(), q[f"ratio_{name}_ci_high"].to_numpy() - y])
+                ax.errorbar(e, y, yerr=yerr, fmt=mk, capsize=3, color=col, mfc=col if gk else "white",
+                            label=lab if i == 0 else None)
+            ax.plot(e, q["d_hertz_boltzmann"] / q["d_hard_boltzmann"], "kx",
+                    label="theory: Hertz / hard spheres" if i == 0 else None)
+            ax.plot([], [], mk, color="k", mfc="k" if gk else "white", label=src)
         ax.set_xscale("log")
         ax.set_xlabel("Young's modulus E (Pa)")
         made.append(_finish(fig, ax, 1, "D ratio, 95 % CI over seeds", "Sphere gas against kinetic theory",
