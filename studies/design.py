@@ -271,6 +271,8 @@ def describe(gi, g, st):
     hw = st["halfwidth"]
     hw_s = "n/a" if not (hw == hw) else f"{100 * hw:.2f} %"
     proj = "" if st.get("n_needed") is None else f", projected {st['n_needed']} pairs for the target"
+    if hw == hw and hw <= st["target"] and st["n"] < st.get("min_n", 0):
+        proj = f", within the target but short of the design's minimum of {st['min_n']} pairs"
     if st.get("cpu_hours_to_target") is not None:
         per = "" if st.get("cpu_hours_per_pair") is None else f"; {st['cpu_hours_per_pair']:.2f} CPU-h a new pair"
         proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more, runs already made not counted{per})"

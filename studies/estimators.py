@@ -590,14 +590,18 @@ def _tq(conf, dof):
     return float(stats.t.ppf(0.5 + conf / 2, dof))
 
 
-def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=12, max_n=None):
+MIN_PAIRS = 12       # the sequential design's pilot size: it never stops on fewer pairs (coverage)
+
+
+def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=MIN_PAIRS, max_n=None):
     """Where a paired comparison stands: has the t-interval reached the target half-width?
 
     ``diffs``: per-seed differences (e.g. D_case - D_exact, m^2/s) so far, in seed order.
     Returns a dict: ``n``, ``mean``, ``sd``, ``halfwidth`` (t_{n-1} sd / sqrt n; nan if
     n < 2), ``met`` (n >= min_n and halfwidth <= target), ``n_needed`` (projected total
     pairs: the smallest n' >= max(n, min_n) with t_{n'-1} sd / sqrt(n') <= target, using the
-    current sd; None if n < 2), ``more`` (= n_needed - n, >= 0), ``capped`` (n_needed > max_n).
+    current sd; None if n < 2), ``more`` (= n_needed - n, >= 0), ``capped`` (n_needed > max_n),
+    ``min_n``.
 
     The stopping rule looks at the spread only (never at the mean).  It still selects on a
     small sd, so the final t-interval covers slightly less than nominal; the pilot size
@@ -614,7 +618,7 @@ def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=12, max_n=None):
     if n < 2:
         return dict(n=n, mean=float(x.mean()) if n else float("nan"), sd=float("nan"),
                     halfwidth=float("nan"), met=False, n_needed=None, more=max(min_n - n, 2 - n),
-                    capped=False)
+                    capped=False, min_n=min_n)
     sd = float(np.std(x, ddof=1))
     hw = _tq(conf, n - 1) * sd / math.sqrt(n)
     met = bool(n >= min_n and hw <= target_halfwidth)
@@ -631,7 +635,7 @@ def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=12, max_n=None):
         while _tq(conf, need - 1) * sd / math.sqrt(need) > target_halfwidth:
             need += 1
     return dict(n=n, mean=float(x.mean()), sd=sd, halfwidth=hw, met=met, n_needed=int(need),
-                more=int(max(need - n, 0)), capped=bool(max_n is not None and need > max_n))
+                more=int(max(need - n, 0)), capped=bool(max_n is not None and need > max_n), min_n=min_n)
 
 
 def next_batch(status, batch=2, max_n=None, overshoot=1.0):

@@ -24,6 +24,7 @@ import pandas as pd
 from . import design, effects, effects_plots, engine, rates, sphere_gas
 from . import shapes as shp
 from . import spec as S
+from .estimators import MIN_PAIRS
 
 RESULTS = os.path.join(S.ROOT, "results")
 
@@ -135,7 +136,8 @@ def programme_section(lines, plans):
                          f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
                          f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
         lines.append("")
-        lines.append("Projected pairs: the 95 % half-width's target at the spread so far. CPU-h to target: the runs "
+        lines.append("Projected pairs: the 95 % half-width's target at the spread so far, never fewer than the "
+                     f"design's minimum of {MIN_PAIRS} pairs (a smaller pilot sample undercovers). CPU-h to target: the runs "
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
                      "step; a run another question already made (a seed's exact run) costs nothing.")
         lines.append("")
@@ -194,6 +196,10 @@ def _answer(sp, g, st, cpu):
         text += (f" Target ±{100 * st['target']:.2f} % reached (half-width {100 * hw:.2f} % after "
                  f"{cpu:.1f} CPU-hours for the whole spec); the seeds the group lists are still running "
                  f"(state: {st['state']}).")
+    elif hw <= st["target"] and n < st.get("min_n", 0):
+        text += (f" Half-width {100 * hw:.2f} % already within the target ±{100 * st['target']:.2f} %, but the "
+                 f"design stops no earlier than {st['min_n']} pairs (a smaller pilot sample undercovers, "
+                 f"docs/estimator.md): {st['min_n'] - n} more (state: {st['state']}).")
     else:
         need = st["n_needed"]
         text += (f" Target ±{100 * st['target']:.2f} % not met yet: half-width {100 * hw:.2f} % after "

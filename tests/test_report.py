@@ -279,6 +279,14 @@ def test_answer_says_whether_the_target_is_met_reached_or_not_yet():
     assert "Target half-width ±1.00 % met." in report._answer(sp, g, dict(st, state="target met"), 18.2)
     no = report._answer(sp, g, dict(st, met=False, halfwidth=0.0138, n_needed=21, cpu_hours_to_target=2.0), 18.2)
     assert "Target ±1.00 % not met yet: half-width 1.38 %" in no and "projects 21 pairs, about 2 CPU-hours more" in no
+    # within the target before the design's minimum sample (sequential_status's min_n): says so, not "not met"
+    few = report._answer(sp, g, dict(st, n=5, met=False, halfwidth=0.0095, n_needed=12, min_n=12), 18.2)
+    assert "Half-width 0.95 % already within the target ±1.00 %, but the design stops no earlier than 12 pairs" in few
+    assert "7 more (state: running)" in few and "not met yet" not in few
+    from studies import design
+    line = design.describe(2, g, dict(st, n=5, met=False, halfwidth=0.0095, n_needed=12, min_n=12, cpu_hours=18.2,
+                                      budget_cpu_hours=30.0))
+    assert "within the target but short of the design's minimum of 12 pairs" in line and "projected" not in line
 
 
 def test_gas_against_map_says_apart_only_when_the_intervals_do_not_meet():
