@@ -503,10 +503,11 @@ def answers_section(lines, plans, sph, effect_rows=(), maps=(), share=False):
     lines += paper_share_answers(specs, share=share)
     for r in sph:
         lo, hi = r["ratio_hertz_ci_low"] - 1, r["ratio_hertz_ci_high"] - 1
-        consistent = lo <= 0 <= hi
+        judged = ("(one run so far: no interval, no verdict)" if pd.isna(lo) or pd.isna(hi)
+                  else "(consistent)" if lo <= 0 <= hi else "(**not consistent**)")
         lines.append(f"* **Sphere gas vs kinetic theory, E = {r['youngs_modulus']:.0e} Pa** ({r['source']}): measured D "
                      f"{pct(r['ratio_hertz'] - 1)} {interval(lo, hi)} from the Boltzmann-equation D of Hertz spheres "
-                     + ("(consistent)" if consistent else "(**not consistent**)")
+                     + judged
                      + f", and {pct(r['ratio_hard'] - 1)} {interval(r['ratio_hard_ci_low'] - 1, r['ratio_hard_ci_high'] - 1)} "
                      "from hard spheres of the same diameter: the contact's softness alone moves D by "
                      f"{pct(r['d_hertz_boltzmann'] / r['d_hard_boltzmann'] - 1)} at this stiffness.")
@@ -669,8 +670,9 @@ def sphere_gas_section(lines, sph):
               "hard, Boltzmann | hard, 1st CE | measured / Hertz − 1 | measured / hard − 1 |",
               "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in sph:
+        ci = "n/a" if pd.isna(r["ci_low"]) or pd.isna(r["ci_high"]) else f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}]"
         lines.append(f"| {r['youngs_modulus']:.0e} | {r['source']} | {int(r['n_runs'])} | {r['D']:.3f} | "
-                     f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}] | {r['d_hertz_boltzmann']:.3f} ± {r['d_hertz_boltzmann_se']:.3f} | "
+                     f"{ci} | {r['d_hertz_boltzmann']:.3f} ± {r['d_hertz_boltzmann_se']:.3f} | "
                      f"{r['d_hertz_first']:.3f} | {r['d_hard_boltzmann']:.3f} ± {r['d_hard_boltzmann_se']:.3f} | "
                      f"{r['d_hard_first']:.3f} | {pct(r['ratio_hertz'] - 1)} {interval(r['ratio_hertz_ci_low'] - 1, r['ratio_hertz_ci_high'] - 1)} | "
                      f"{pct(r['ratio_hard'] - 1)} {interval(r['ratio_hard_ci_low'] - 1, r['ratio_hard_ci_high'] - 1)} |")

@@ -305,3 +305,20 @@ def test_cpu_hours_more_reads_as_english():
     assert report._cpu_hours_more(1.2) == "about 1 CPU-hour more"
     assert report._cpu_hours_more(0.2) == "under half a CPU-hour more"
     assert report._cpu_hours_more(0.5) == "about 1 CPU-hour more" and report._cpu_hours_more(2.5) == "about 3 CPU-hours more"
+
+
+def test_a_sphere_gas_of_one_run_gets_no_verdict():
+    """One run (the first of a new stiffness) has no interval: the report says so, never "not
+    consistent" from a NaN interval (before: it said **not consistent** with "n/a" bounds), and the
+    table shows n/a, not "[nan, nan]"."""
+    rows = sphere_gas.read(S.ROOT + "/results/sphere_gas.csv")
+    one = dict(rows[-1], n_runs=1.0, ci_low=float("nan"), ci_high=float("nan"),
+               **{f"ratio_{k}_ci_{e}": float("nan") for k in ("hertz", "hard") for e in ("low", "high")})
+    lines = []
+    report.answers_section(lines, [], [one])
+    text = "\n".join(lines)
+    assert "(one run so far: no interval, no verdict)" in text and "not consistent" not in text
+    lines = []
+    report.sphere_gas_section(lines, [one])
+    table = "\n".join(lines)
+    assert "| 1 | " in table and "nan" not in table.lower().replace("n/a", "")
