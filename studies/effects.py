@@ -36,9 +36,7 @@ COLUMNS = ("shape", "overlap", "protocol", "youngs_modulus", "case", "n_pairs", 
 def _pair_key(params):
     """Everything of a run's parameters but case, protocol, seed, sphere options and spin pairing:
     runs with the same pair key and seed are a paired comparison."""
-    p = {k: v for k, v in params.items() if k not in ("case", "spheres", "protocol", "seed")}
-    p["gas"] = {k: v for k, v in p["gas"].items() if k != "spin_pairing"}
-    return S.run_key(p)
+    return S.run_key(_pair_facts(params))
 
 
 def state_key(params):
