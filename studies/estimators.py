@@ -46,7 +46,7 @@ from scipy import optimize, stats
 __all__ = [
     "group_labels", "vacf_fft", "vacf_bruteforce", "msd_fft_groups", "correlation_time", "diffusion_green_kubo",
     "green_kubo_jackknife", "green_kubo_stderr", "green_kubo_interval", "ols_msd",
-    "ols_msd_stderr", "t_interval", "simulate_ou", "detect_equilibration",
+    "ols_msd_stderr", "t_interval", "fieller_ratio", "fieller_from_means", "simulate_ou", "detect_equilibration",
     "equipartition_angular_velocities", "sequential_status", "next_batch",
     "GK_C_TRUNC", "GK_FIT_WINDOW",
 ]
@@ -420,23 +420,37 @@ def fieller_ratio(a, b, conf=0.95):
     na, nb = len(a), len(b)
     if na < 2 or nb < 2:
         raise ValueError(f"fieller_ratio needs at least 2 values in each sample (got {na} and {nb})")
-    ma, mb = float(a.mean()), float(b.mean())
-    va, vb = float(a.var(ddof=1)) / na, float(b.var(ddof=1)) / nb
+    th, lo, hi, dof = fieller_from_means(float(a.mean()), float(a.var(ddof=1)) / na, na - 1,
+                                         float(b.mean()), float(b.var(ddof=1)) / nb, nb - 1, conf)
+    return th, lo, hi, dof, na, nb
+
+
+def fieller_from_means(ma, va, dfa, mb, vb, dfb, conf=0.95):
+    """(theta, low, high, dof): :func:`fieller_ratio` from two independent means ma, mb, the
+    variances of those means va, vb and their degrees of freedom dfa, dfb (> 0; the sample
+    size - 1 of a mean over seeds, or of a Monte Carlo estimate over independent chains).
+
+    For the sphere gas: a = the mean D over runs, b = the kinetic theory's Monte Carlo D with its
+    standard error over n_chains independent chains (``studies.kinetic.d_boltzmann``), so the
+    interval of D_measured / D_theory carries both errors.  Coverage: tests/test_estimators.py.
+    """
+    if not (dfa > 0 and dfb > 0 and va >= 0 and vb >= 0):
+        raise ValueError(f"need dof > 0 and variances >= 0, got dfa={dfa}, dfb={dfb}, va={va}, vb={vb}")
     if mb == 0.0:
-        return np.nan, np.nan, np.nan, np.nan, na, nb
+        return np.nan, np.nan, np.nan, np.nan
     th = ma / mb
     num = (va + th * th * vb) ** 2
-    den = va * va / (na - 1) + (th * th * vb) ** 2 / (nb - 1)
-    dof = num / den if den > 0 else float(min(na, nb) - 1)
+    den = va * va / dfa + (th * th * vb) ** 2 / dfb
+    dof = num / den if den > 0 else float(min(dfa, dfb))
     q2 = _tq(conf, dof) ** 2
     A = mb * mb - q2 * vb
     B = ma * mb
     C = ma * ma - q2 * va
     disc = B * B - A * C
     if A <= 0 or disc < 0:
-        return th, np.nan, np.nan, dof, na, nb
+        return th, np.nan, np.nan, dof
     r = np.sqrt(disc)
-    return th, (B - r) / A, (B + r) / A, dof, na, nb
+    return th, (B - r) / A, (B + r) / A, dof
 
 
 # ---------------------------------------------------------------------------------------

@@ -25,6 +25,9 @@ non-uniform gases*, ch. 9-10):
   conditional expectation: same mean, smaller variance); lambda(v) = n pi sigma^2 E_w|v - w|
   has a closed form (``mean_relative_speed``).  For hard spheres it gives D/[D]_1 = 1.019, the
   Sonine-series limit of Chapman and Cowling.
+* ``leapfrog_collision``: one collision as YADE's leapfrog integrates it at a time step dt
+  (tested against YADE to round-off), and ``timestep_shift``: the relative change of D that the
+  step makes through the collision map (first order in delta Omega/Omega, as docs/timestep.md).
 * ``enskog_chi``: the Enskog factor chi = (1 - phi/2) / (1 - phi)^3 (Carnahan-Starling contact
   value) that divides the dilute D at volume fraction phi (1.005 at phi = 0.002).
 
@@ -41,7 +44,7 @@ from scipy.special import erf, roots_genlaguerre, roots_legendre
 
 __all__ = ["hertz_kn", "deflection_angle", "transport_cross_section", "omega11",
            "d_first_approximation", "d_hard_spheres_first", "d_boltzmann", "enskog_chi",
-           "mean_relative_speed", "SphereGas"]
+           "mean_relative_speed", "leapfrog_collision", "timestep_shift", "SphereGas"]
 
 _U, _WU = roots_legendre(64)
 _U = 0.5 * (_U + 1.0)          # Gauss-Legendre nodes/weights on [0, 1]
@@ -110,6 +113,51 @@ def deflection_angle(b, g, sigma, mu, kn=None):
     return out
 
 
+def leapfrog_collision(b, g, sigma, mu, kn, dt, phase=0.5, max_steps=1_000_000):
+    """One binary collision of Hertz spheres as the gas script's integrator resolves it.
+
+    YADE's NewtonIntegrator is a leapfrog: the force from the positions of step k updates the
+    half-step velocity, v(k+1/2) = v(k-1/2) + F(x_k) dt / m, then x(k+1) = x_k + v(k+1/2) dt.  For
+    two free bodies the scheme is linear, so their relative coordinate r = x_B - x_A follows the
+    same leapfrog with the pair force over the reduced mass mu:  F = kn delta^1.5 along r,
+    delta = sigma - |r| (``Law2_ScGeom_MindlinPhys_Mindlin``, frictionless).  The collision starts on
+    the free-flight course at impact parameter b [m] with relative speed g [m/s]; ``phase`` in
+    [0, 1) places the last step before the free-flight contact time t_c at t_c - phase dt (in a gas
+    it is uniform).  dt [s]; arrays broadcast.
+
+    Returns (chi [rad], g_out/g): the deflection of the relative velocity and the ratio of the
+    outgoing to the incoming relative speed (1 for the exact orbit; the step's energy error is
+    g_out^2/g^2 - 1).  As dt -> 0, chi tends to :func:`deflection_angle` at second order.
+    """
+    b, g, phase = (np.array(a, float) for a in np.broadcast_arrays(b, g, phase))
+    if not (dt > 0 and kn > 0 and mu > 0 and sigma > 0):
+        raise ValueError(f"need dt, kn, mu and sigma > 0, got dt={dt}, kn={kn}, mu={mu}, sigma={sigma}")
+    if not (np.all(g > 0) and np.all((b >= 0) & (b < sigma)) and np.all((phase >= 0) & (phase < 1))):
+        raise ValueError("need g > 0, 0 <= b < sigma and 0 <= phase < 1")
+    shape = b.shape
+    b, g, phase = b.ravel(), g.ravel(), phase.ravel()
+    # the relative course along +x at height b; free-flight contact at x = -sqrt(sigma^2 - b^2)
+    x = np.stack([-np.sqrt(sigma ** 2 - b ** 2) - phase * g * dt, b], 1)
+    v = np.stack([g, np.zeros_like(g)], 1)
+    todo = np.arange(b.size)
+    for _ in range(max_steps):
+        xs, vs = x[todo], v[todo]
+        d = np.sqrt(np.einsum("ij,ij->i", xs, xs))
+        done = (d >= sigma) & (np.einsum("ij,ij->i", xs, vs) > 0)   # apart and separating: free for ever
+        todo, xs, vs, d = todo[~done], xs[~done], vs[~done], d[~done]
+        if todo.size == 0:
+            break
+        delta = np.maximum(sigma - d, 0.0)
+        vs = vs + (kn * delta ** 1.5 / (mu * d))[:, None] * xs * dt
+        x[todo] = xs + vs * dt
+        v[todo] = vs
+    else:
+        raise RuntimeError(f"{todo.size} collisions unfinished after {max_steps} steps (dt = {dt} s too small?)")
+    speed = np.sqrt(np.einsum("ij,ij->i", v, v))
+    chi = np.arctan2(np.abs(v[:, 1]), v[:, 0])
+    return chi.reshape(shape), (speed / g).reshape(shape)
+
+
 def transport_cross_section(g, sigma, mu, kn=None, n_b=100):
     """Q1(g) = 2 pi int (1 - cos chi) b db [m^2] for relative speeds g [m/s] (array).
 
@@ -138,6 +186,32 @@ def omega11(kT, mu, sigma, kn=None, n_g=192, n_b=100):
     g = np.sqrt(2.0 * x * kT / mu)
     q1 = transport_cross_section(g, sigma, mu, kn, n_b)
     return math.sqrt(kT / (2.0 * math.pi * mu)) * 0.5 * float(w @ q1)
+
+
+def timestep_shift(kT, mu, sigma, kn, dt, n_g=64, n_b=60, n_phase=16):
+    """Relative change of D [-] that the integrator's time step dt [s] makes in the dilute gas.
+
+    D depends on dt through the collision map alone (free flight is exact), so to first order
+    delta D/D = -delta Omega/Omega, with Omega the Mason-Monchick collision integral
+    ~ <g^2 q>, q = 1 - (g'/g) cos chi (= 1 - cos chi for the exact orbit), over the
+    collision-rate-weighted Maxwellian (docs/timestep.md).  The collisions are those of
+    :func:`leapfrog_collision`, averaged over ``n_phase`` contact phases (midpoints); the same
+    Gauss-Laguerre (``n_g``) x Gauss-Legendre (``n_b``) rule as :func:`omega11` integrates both maps.
+    kT [J], mu: reduced mass [kg], sigma [m], kn [N m^-3/2].
+    """
+    x, wx = roots_genlaguerre(n_g, 2.0)
+    g = np.sqrt(2.0 * x * kT / mu)[:, None]
+    s, ws = roots_legendre(n_b)
+    s = 0.5 * (s + 1.0)
+    ws = 0.5 * ws
+    b = sigma * np.sqrt(1.0 - s ** 2)[None, :]
+    q_exact = 1.0 - np.cos(deflection_angle(b, g, sigma, mu, kn))
+    phase = (np.arange(n_phase) + 0.5) / n_phase
+    chi, ratio = leapfrog_collision(b[..., None], g[..., None], sigma, mu, kn, dt, phase)
+    q_step = (1.0 - ratio * np.cos(chi)).mean(axis=2)
+    om_exact = wx @ ((q_exact * s) @ ws)
+    om_step = wx @ ((q_step * s) @ ws)
+    return -float(om_step / om_exact - 1.0)
 
 
 def d_hard_spheres_first(n, kT, m, sigma):
@@ -244,7 +318,7 @@ class SphereGas:
 
     n_particles, box_length [m] (cubic periodic box), diameter [m], mass [kg], kT [J] (the
     translational temperature: 2/3 of the mean translational kinetic energy per particle),
-    youngs_modulus [Pa], poisson.
+    youngs_modulus [Pa], poisson, dt: the integrator's time step [s] (None: not known).
     """
     n_particles: int
     box_length: float
@@ -253,6 +327,7 @@ class SphereGas:
     kT: float
     youngs_modulus: float
     poisson: float
+    dt: float | None = None
 
     @property
     def number_density(self):
@@ -281,7 +356,10 @@ class SphereGas:
         d_lo = d_first_approximation(n, kT, m, sig, self.kn / 1.1)
         d_hi = d_first_approximation(n, kT, m, sig, self.kn * 1.1)
         slope = math.log(d_hi / d_lo) / (2.0 * math.log(1.1))
-        return {"enskog_chi": chi, "d_hard_first": d_hs1 / chi, "d_hertz_first": d_hz1 / chi,
+        # the step's own effect on D (the collision map as YADE integrates it); the predictions
+        # above are for the exact orbit
+        dt_effect = (timestep_shift(kT, 0.5 * m, sig, self.kn, self.dt) if self.dt is not None else math.nan)
+        return {"enskog_chi": chi, "dt_effect": dt_effect, "d_hard_first": d_hs1 / chi, "d_hertz_first": d_hz1 / chi,
                 "dlnD_dlnE": slope,
                 "d_hard_boltzmann": d_hs / chi, "d_hard_boltzmann_se": se_hs / chi,
                 "d_hertz_boltzmann": d_hz / chi, "d_hertz_boltzmann_se": se_hz / chi}

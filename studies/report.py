@@ -510,7 +510,9 @@ def answers_section(lines, plans, sph, effect_rows=(), maps=(), share=False):
                      + judged
                      + f", and {pct(r['ratio_hard'] - 1)} {interval(r['ratio_hard_ci_low'] - 1, r['ratio_hard_ci_high'] - 1)} "
                      "from hard spheres of the same diameter: the contact's softness alone moves D by "
-                     f"{pct(r['d_hertz_boltzmann'] / r['d_hard_boltzmann'] - 1)} at this stiffness.")
+                     f"{pct(r['d_hertz_boltzmann'] / r['d_hard_boltzmann'] - 1)} at this stiffness"
+                     + (f"; the runs' time step ({r['dt']:.3g} s) by {r['dt_effect'] * 100:+.3f} % (the collision "
+                        "as YADE's leapfrog integrates it)." if _finite(r.get("dt_effect")) else "."))
         dimer = [e for e in effect_rows if e["shape"] == "dimer" and e["case"] == "uncorrected"
                  and str(e["overlap"]) == "0.5" and float(e["youngs_modulus"]) == r["youngs_modulus"]]
         if dimer and r["dlnD_dlnE"] == r["dlnD_dlnE"]:
@@ -656,6 +658,10 @@ def rate_ratio_section(lines, rr):
     lines.append("")
 
 
+def _finite(x):
+    return x is not None and not pd.isna(x)
+
+
 def sphere_gas_section(lines, sph):
     lines += ["## The sphere gas against kinetic theory (`sphere_gas.csv`)", "",
               "The reference gas of frictionless Hertz spheres (the `spheres` case) against the self-diffusion "
@@ -666,15 +672,21 @@ def sphere_gas_section(lines, sph):
     if not sph:
         lines += ["No sphere-gas runs yet.", ""]
         return
-    lines += ["| E (Pa) | source | runs | D measured (m²/s) | 95 % CI | Hertz, Boltzmann | Hertz, 1st CE | "
-              "hard, Boltzmann | hard, 1st CE | measured / Hertz − 1 | measured / hard − 1 |",
-              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += ["The ratios' intervals are Fieller intervals that carry both the runs' error and the theory's Monte "
+              "Carlo error (± one standard error in the theory columns). \"Time step\": the relative change of D "
+              "that the runs' time step makes, from the collision as YADE's leapfrog integrates it "
+              "(`kinetic.timestep_shift`; the theory columns are for the exact orbit).", "",
+              "| E (Pa) | source | runs | D measured (m²/s) | 95 % CI | Hertz, Boltzmann | Hertz, 1st CE | "
+              "hard, Boltzmann | hard, 1st CE | time step | measured / Hertz − 1 | measured / hard − 1 |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in sph:
         ci = "n/a" if pd.isna(r["ci_low"]) or pd.isna(r["ci_high"]) else f"[{r['ci_low']:.3f}, {r['ci_high']:.3f}]"
         lines.append(f"| {r['youngs_modulus']:.0e} | {r['source']} | {int(r['n_runs'])} | {r['D']:.3f} | "
                      f"{ci} | {r['d_hertz_boltzmann']:.3f} ± {r['d_hertz_boltzmann_se']:.3f} | "
                      f"{r['d_hertz_first']:.3f} | {r['d_hard_boltzmann']:.3f} ± {r['d_hard_boltzmann_se']:.3f} | "
-                     f"{r['d_hard_first']:.3f} | {pct(r['ratio_hertz'] - 1)} {interval(r['ratio_hertz_ci_low'] - 1, r['ratio_hertz_ci_high'] - 1)} | "
+                     f"{r['d_hard_first']:.3f} | "
+                     + (f"{r['dt_effect'] * 100:+.3f} %" if _finite(r.get("dt_effect")) else "n/a")
+                     + f" | {pct(r['ratio_hertz'] - 1)} {interval(r['ratio_hertz_ci_low'] - 1, r['ratio_hertz_ci_high'] - 1)} | "
                      f"{pct(r['ratio_hard'] - 1)} {interval(r['ratio_hard_ci_low'] - 1, r['ratio_hard_ci_high'] - 1)} |")
     lines.append("")
 

@@ -71,6 +71,7 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
               "youngs_modulus": (_NUM, False, None, "pos"), "t_end": (_NUM, False, None, "pos"),
               "dt_factor": (_NUM, False, None, "pos"), "start": (str, False, None, "start"),
               "energy_per_particle": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
+              "n_particles": (int, False, None, "pos"),
               "target": (dict, False, None, None), "max_seeds": (int, False, None, "pos")}
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
@@ -82,7 +83,7 @@ LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, Tr
 # of similar importance).  Not part of any run key.
 SCHEDULES = ("in_order", "round_robin")
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
-             "start": "gas", "energy_per_particle": "gas"}
+             "start": "gas", "energy_per_particle": "gas", "n_particles": "gas"}
 
 
 def _flat(typ):
@@ -352,6 +353,16 @@ def runs(spec, extra_seeds=None):
     return out
 
 
+def time_step(params, props=None):
+    """The run's time step dt [s]: ``run.dt_factor`` x r_min sqrt(rho/E), the P-wave step of the
+    shape's smallest member sphere (every case of a shape, the reference spheres too, runs at it).
+    ``props``: :func:`studies.shapes.properties` of the shape, if already computed."""
+    mat = params["material"]
+    if props is None:
+        props = shp.properties(params["shape"]["definition"], mat["density"])
+    return params["run"]["dt_factor"] * min(props["radii"]) * math.sqrt(mat["density"] / mat["youngs_modulus"])
+
+
 def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     """The run file of one run (what ``yade_scripts/granular_gas.py`` reads): a JSON-able dict with
     material, box, time step, the body and the initial state of every particle."""
@@ -369,8 +380,7 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     pos, ori, vel, angvel = gm.initial_state(
         p["seed"], n, box, rb, cres, ex["mass"], np.asarray(ex["inertia"]), case_tensor, p["protocol"],
         gas["energy_per_particle"], gas["start"], props["linear"], spin_pairing=gas.get("spin_pairing", "same"))
-    r_min = min(props["radii"])
-    dt = run["dt_factor"] * r_min * math.sqrt(mat["density"] / mat["youngs_modulus"])   # x P-wave step
+    dt = time_step(p, props)
     n_steps = int(round(run["t_end"] / dt))
     rec_steps = max(1, int(round(run["rec_interval"] / dt)))
     body = {"builder": cres["builder"], "route": cres["route"], "mass": cres["mass"], "moments": cres["moments"]}

@@ -174,3 +174,100 @@ def test_deflection_against_yade_binary_collision():
         assert abs(chi_yade - chi) < 5e-7, (beta, chi_yade, chi)   # measured <= 7.6e-8 at this dt
         assert np.linalg.norm(gout) == pytest.approx(g, rel=1e-5)
     O.reset()
+
+
+def test_leapfrog_collision_converges_to_the_orbit_at_second_order():
+    """The integrated collision against the quadrature deflection (an independent route): the
+    phase-averaged error falls 4x per halving of dt, and the step's energy error vanishes."""
+    b = np.array([0.0, 0.3, 0.6, 0.9, 0.97]) * SIGMA
+    g = np.array([0.3, 2.5, 6.0])[:, None, None]
+    ph = ((np.arange(16) + 0.5) / 16)[None, None, :]
+    exact = K.deflection_angle(b[None, :], g[:, :, 0], SIGMA, MU, KN)
+    dt1 = 0.06665 * math.sqrt(1140.0 / 1e7)           # the sphere gas's step at E = 1e7 Pa
+    errs = []
+    for f in (1.0, 0.5, 0.25):
+        chi, ratio = K.leapfrog_collision(b[None, :, None], g, SIGMA, MU, KN, f * dt1, ph)
+        errs.append(np.abs(chi.mean(2) - exact).max())
+        assert np.abs(ratio ** 2 - 1).max() < 1e-2 * f ** 2
+    assert 1e-5 < errs[0] < 1e-3                        # visible at the gas's step, and small
+    for e_big, e_small in zip(errs, errs[1:]):
+        assert 3.5 < e_big / e_small < 4.5
+
+
+def test_leapfrog_collision_refuses_bad_input():
+    for kw in ({"b": SIGMA}, {"g": 0.0}, {"phase": 1.0}, {"dt": 0.0}):
+        args = {**dict(b=0.1, g=1.0, sigma=SIGMA, mu=MU, kn=KN, dt=1e-4, phase=0.5), **kw}
+        with pytest.raises(ValueError):
+            K.leapfrog_collision(**args)
+    with pytest.raises(RuntimeError):
+        K.leapfrog_collision(0.1, 1.0, SIGMA, MU, KN, 1e-4, max_steps=10)
+
+
+def test_leapfrog_collision_is_yades_integrator():
+    """Two frictionless Hertz spheres in YADE at the sphere gas's own time step: the outgoing
+    relative velocity matches :func:`studies.kinetic.leapfrog_collision` at the same contact phase
+    to round-off, while it differs from the exact orbit by the step's error (~1e-4 rad)."""
+    pytest.importorskip("yade")
+    from yade import O, utils
+    from yade.wrapper import (Bo1_Sphere_Aabb, ForceResetter, FrictMat, Ig2_Sphere_Sphere_ScGeom,
+                              InsertionSortCollider, InteractionLoop, Ip2_FrictMat_FrictMat_MindlinPhys,
+                              Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator)
+    from yade.minieigenHP import Vector3
+    g, x0 = 4.0, 0.3
+    betas = [0.0, 0.3, 0.6, 0.9, 0.97]
+    dt = 0.06665 * math.sqrt(1140.0 / 1e7)
+    O.reset()
+    rho = M / (math.pi * SIGMA ** 3 / 6)
+    mat = O.materials.append(FrictMat(young=1e7, poisson=0.4, density=rho, frictionAngle=0.0))
+    pairs = []
+    for k, beta in enumerate(betas):
+        z = 10.0 * k
+        a = O.bodies.append(utils.sphere((-0.5 * x0, 0, z), 0.1, material=mat))
+        b = O.bodies.append(utils.sphere((0.5 * x0, beta * SIGMA, z), 0.1, material=mat))
+        O.bodies[a].state.vel = Vector3(0.5 * g, 0, 0)
+        O.bodies[b].state.vel = Vector3(-0.5 * g, 0, 0)
+        pairs.append((a, b))
+    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
+                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_MindlinPhys()],
+                                 [Law2_ScGeom_MindlinPhys_Mindlin()]),
+                 NewtonIntegrator(damping=0.0, gravity=(0, 0, 0))]
+    O.dt = dt
+    O.run(int(0.3 / dt), True)
+    beta = np.array(betas)
+    t_contact = (x0 - SIGMA * np.sqrt(1 - beta ** 2)) / g      # free-flight contact time
+    phase = t_contact / dt - np.floor(t_contact / dt)          # last contact-free step: t_contact - phase dt
+    chi_lf, ratio_lf = K.leapfrog_collision(beta * SIGMA, g, SIGMA, MU, KN, dt, phase)
+    chi_exact = K.deflection_angle(beta * SIGMA, g, SIGMA, MU, KN)
+    assert O.interactions.countReal() == 0
+    for i, (a, b) in enumerate(pairs):
+        gout = np.array(O.bodies[a].state.vel) - np.array(O.bodies[b].state.vel)
+        chi_yade = math.atan2(abs(gout[1]), gout[0])
+        assert abs(chi_yade - chi_lf[i]) < 1e-12, (betas[i], chi_yade, chi_lf[i])   # measured <= 1.4e-15
+        assert np.linalg.norm(gout) / g == pytest.approx(ratio_lf[i], abs=1e-12)
+    assert np.abs(chi_lf - chi_exact)[1:].max() > 1e-4       # the step's own error (measured 8e-4) is visible
+    O.reset()
+
+
+def test_timestep_shift_against_monte_carlo_and_its_order():
+    """The quadrature of the step's effect on D against plain Monte Carlo over the same law of
+    collisions (x = mu g^2/2kT ~ Gamma(3): the g^5-weighted Maxwellian of Omega11; b^2 uniform on
+    [0, sigma^2]; phase uniform), with common random numbers for the exact and stepped maps, at
+    an exaggerated step (4x the gas's) where the shift is ~0.4 %; and the shift's second order."""
+    kT = 2.5
+    dt1 = 0.06665 * math.sqrt(1140.0 / 1e7)
+    quad = K.timestep_shift(kT, MU, SIGMA, KN, 4 * dt1)
+    rng = np.random.default_rng(3)
+    n = 40000
+    g = np.sqrt(2 * kT / MU * rng.gamma(3.0, 1.0, n))
+    b = SIGMA * np.sqrt(rng.uniform(size=n))
+    b = np.minimum(b, SIGMA * (1 - 1e-12))
+    chi, ratio = K.leapfrog_collision(b, g, SIGMA, MU, KN, 4 * dt1, rng.uniform(size=n))
+    q_ex = 1 - np.cos(K.deflection_angle(b, g, SIGMA, MU, KN))
+    dq = (1 - ratio * np.cos(chi)) - q_ex
+    mc = -dq.mean() / q_ex.mean()
+    se = dq.std(ddof=1) / math.sqrt(n) / q_ex.mean()
+    assert 1e-3 < -quad < 1e-2
+    assert abs(quad - mc) < 3.5 * se, (quad, mc, se)
+    assert se < 0.1 * abs(quad)                      # the comparison can fail
+    r = K.timestep_shift(kT, MU, SIGMA, KN, dt1) / K.timestep_shift(kT, MU, SIGMA, KN, dt1 / 2)
+    assert 3.5 < r < 4.5

@@ -55,6 +55,12 @@ def test_committed_sphere_gas_agrees_with_kinetic_theory():
     # and it is not the hard-sphere gas: softness is resolved at this stiffness
     assert row["ci_low"] > row["d_hard_boltzmann"]
     assert row["dlnD_dlnE"] < -0.01
+    # the ratio's interval carries the theory's Monte Carlo error too: wider than the runs' alone
+    ref = row["d_hertz_boltzmann"]
+    assert row["ratio_hertz_ci_low"] < row["ci_low"] / ref and row["ratio_hertz_ci_high"] > row["ci_high"] / ref
+    # the first version ran at dt factor 0.5: the step moves D by -6e-5 (kinetic.timestep_shift)
+    assert row["dt"] == pytest.approx(3.558e-4, rel=1e-3)
+    assert -1e-4 < row["dt_effect"] < -3e-5
     committed = sphere_gas.read()
     assert committed and math.isclose(committed[0]["d_hertz_boltzmann"], row["d_hertz_boltzmann"], rel_tol=0.015)
 
@@ -323,3 +329,19 @@ def test_a_sphere_gas_of_one_run_gets_no_verdict():
     report.sphere_gas_section(lines, [one])
     table = "\n".join(lines)
     assert "| 1 | " in table and "nan" not in table.lower().replace("n/a", "")
+
+
+def test_sphere_gas_cli_for_a_diagnostic_spec_refuses_without_runs(tmp_path, capsys):
+    """`python -m studies.sphere_gas --spec SPEC`: a missing spec exits 2, a spec without finished
+    sphere runs exits 1 and writes nothing."""
+    with pytest.raises(SystemExit) as e:
+        sphere_gas.main(["--spec", str(tmp_path / "nope.toml")])
+    assert e.value.code == 2 and "no such spec file" in capsys.readouterr().err
+    spec = (S.ROOT + "/studies/specs/sphere_gas_size.toml")
+    text = open(spec).read().replace('results = "results/sphere_gas_size"', f'results = "{tmp_path}/empty"')
+    (tmp_path / "s.toml").write_text(text)
+    out = tmp_path / "table.csv"
+    with pytest.raises(SystemExit) as e:
+        sphere_gas.main(["--spec", str(tmp_path / "s.toml"), "--out", str(out)])
+    assert e.value.code == 1 and "nothing written" in capsys.readouterr().err
+    assert not out.exists()

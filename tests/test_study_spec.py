@@ -70,6 +70,8 @@ def _bad(mutate):
     (lambda r: r["groups"][2].update(seeds=[]), "groups[2].seeds: empty"),
     (lambda r: r["groups"][0].update(colour="red"), "groups[0].colour: unknown key"),
     (lambda r: r["groups"][0].update(youngs_modulus=-1e8), "groups[0].youngs_modulus: must be > 0"),
+    (lambda r: r["groups"][0].update(n_particles=0), "groups[0].n_particles: must be > 0"),
+    (lambda r: r["groups"][0].update(n_particles=100.0), "groups[0].n_particles: expected"),
     (lambda r: r["run"].update(legacy_dt=0.5), "run.legacy_dt: expected a table"),
     (lambda r: r["run"].update(legacy_dt={"below_seed": 4}), "run.legacy_dt.dt_factor: missing"),
     (lambda r: r["run"].update(legacy_dt={"below_seed": 0, "dt_factor": 0.5}), "run.legacy_dt.below_seed: must be > 0"),
@@ -142,6 +144,11 @@ def test_run_key_depends_on_physics_not_on_labels_or_order():
     r4 = raw()
     r4["groups"][0]["youngs_modulus"] = 1e7          # an override equal to the default: same runs
     assert {r["key"] for r in S.runs(S.validate(r4))} == set(keys.values())
+    r5 = raw()
+    r5["groups"][0]["n_particles"] = r5["gas"]["n_particles"] + 1     # another gas: other runs
+    g0 = [r for r in S.runs(S.validate(r5)) if r["group"] == 0]
+    assert g0 and not set(keys.values()) & {r["key"] for r in g0}
+    assert all(r["params"]["gas"]["n_particles"] == r5["gas"]["n_particles"] + 1 for r in g0)
 
 
 def test_legacy_dt_keeps_the_earlier_seeds_runs_and_raises_the_rest():
