@@ -136,25 +136,24 @@ def test_enskog_chi_and_gas():
     assert gas.kn == pytest.approx(4 / 3 * 1e7 / (2 * (1 - 0.16)) * math.sqrt(0.05))
 
 
-def test_deflection_against_yade_binary_collision():
-    """Two frictionless Hertz spheres in YADE (the gas's contact law), one collision each at
-    several impact parameters: the outgoing relative velocity's angle matches chi(b, g)."""
-    yade = pytest.importorskip("yade")
+def _yade_collisions(g, betas, x0=0.3, dt=None, t_run=0.6):
+    """One collision per impact parameter b = beta sigma of two frictionless Hertz spheres in YADE
+    (the gas's contact law), bodies x0 apart along x closing at g; dt None: 0.02 P-wave steps.
+    Returns (outgoing relative velocities v_A - v_B (n, 3), the step used)."""
+    pytest.importorskip("yade")
     from yade import O, utils
     from yade.wrapper import (Bo1_Sphere_Aabb, ForceResetter, FrictMat, Ig2_Sphere_Sphere_ScGeom,
                               InsertionSortCollider, InteractionLoop, Ip2_FrictMat_FrictMat_MindlinPhys,
                               Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator)
     from yade.minieigenHP import Vector3
-    g = 1.5
-    betas = [0.0, 0.3, 0.6, 0.9, 0.97]
     O.reset()
     rho = M / (math.pi * SIGMA ** 3 / 6)
     mat = O.materials.append(FrictMat(young=1e7, poisson=0.4, density=rho, frictionAngle=0.0))
     pairs = []
     for k, beta in enumerate(betas):
         z = 10.0 * k
-        a = O.bodies.append(utils.sphere((-0.15, 0, z), 0.1, material=mat))
-        b = O.bodies.append(utils.sphere((0.15, beta * SIGMA, z), 0.1, material=mat))
+        a = O.bodies.append(utils.sphere((-0.5 * x0, 0, z), 0.1, material=mat))
+        b = O.bodies.append(utils.sphere((0.5 * x0, beta * SIGMA, z), 0.1, material=mat))
         O.bodies[a].state.vel = Vector3(0.5 * g, 0, 0)
         O.bodies[b].state.vel = Vector3(-0.5 * g, 0, 0)
         pairs.append((a, b))
@@ -162,18 +161,27 @@ def test_deflection_against_yade_binary_collision():
                  InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_MindlinPhys()],
                                  [Law2_ScGeom_MindlinPhys_Mindlin()]),
                  NewtonIntegrator(damping=0.0, gravity=(0, 0, 0))]
-    O.dt = 0.02 * utils.PWaveTimeStep()
-    O.run(int(0.6 / O.dt), True)       # 0.3 m closing at 1.5 m/s: 0.2 s to contact, contact ~0.05 s
-    for (a, b), beta in zip(pairs, betas):
-        assert O.interactions.countReal() == 0
-        va = np.array(O.bodies[a].state.vel)
-        vb = np.array(O.bodies[b].state.vel)
-        gout = va - vb
+    O.dt = dt if dt is not None else 0.02 * utils.PWaveTimeStep()
+    O.run(int(t_run / O.dt), True)
+    assert O.interactions.countReal() == 0                      # every collision is over
+    gout = np.array([np.array(O.bodies[a].state.vel) - np.array(O.bodies[b].state.vel) for a, b in pairs])
+    used = float(O.dt)
+    O.reset()
+    return gout, used
+
+
+def test_deflection_against_yade_binary_collision():
+    """Two frictionless Hertz spheres in YADE (the gas's contact law), one collision each at
+    several impact parameters: the outgoing relative velocity's angle matches chi(b, g)."""
+    g = 1.5
+    betas = [0.0, 0.3, 0.6, 0.9, 0.97]
+    # 0.3 m closing at 1.5 m/s: 0.2 s to contact, contact ~0.05 s
+    gout_all, _ = _yade_collisions(g, betas, t_run=0.6)
+    for gout, beta in zip(gout_all, betas):
         chi_yade = math.acos(np.clip(gout[0] / np.linalg.norm(gout), -1, 1))
         chi = K.deflection_angle(beta * SIGMA, g, SIGMA, MU, KN)[()]
         assert abs(chi_yade - chi) < 5e-7, (beta, chi_yade, chi)   # measured <= 7.6e-8 at this dt
         assert np.linalg.norm(gout) == pytest.approx(g, rel=1e-5)
-    O.reset()
 
 
 def test_leapfrog_collision_converges_to_the_orbit_at_second_order():
@@ -207,45 +215,21 @@ def test_leapfrog_collision_is_yades_integrator():
     """Two frictionless Hertz spheres in YADE at the sphere gas's own time step: the outgoing
     relative velocity matches :func:`studies.kinetic.leapfrog_collision` at the same contact phase
     to round-off, while it differs from the exact orbit by the step's error (~1e-4 rad)."""
-    pytest.importorskip("yade")
-    from yade import O, utils
-    from yade.wrapper import (Bo1_Sphere_Aabb, ForceResetter, FrictMat, Ig2_Sphere_Sphere_ScGeom,
-                              InsertionSortCollider, InteractionLoop, Ip2_FrictMat_FrictMat_MindlinPhys,
-                              Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator)
-    from yade.minieigenHP import Vector3
     g, x0 = 4.0, 0.3
     betas = [0.0, 0.3, 0.6, 0.9, 0.97]
     dt = 0.06665 * math.sqrt(1140.0 / 1e7)
-    O.reset()
-    rho = M / (math.pi * SIGMA ** 3 / 6)
-    mat = O.materials.append(FrictMat(young=1e7, poisson=0.4, density=rho, frictionAngle=0.0))
-    pairs = []
-    for k, beta in enumerate(betas):
-        z = 10.0 * k
-        a = O.bodies.append(utils.sphere((-0.5 * x0, 0, z), 0.1, material=mat))
-        b = O.bodies.append(utils.sphere((0.5 * x0, beta * SIGMA, z), 0.1, material=mat))
-        O.bodies[a].state.vel = Vector3(0.5 * g, 0, 0)
-        O.bodies[b].state.vel = Vector3(-0.5 * g, 0, 0)
-        pairs.append((a, b))
-    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
-                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_MindlinPhys()],
-                                 [Law2_ScGeom_MindlinPhys_Mindlin()]),
-                 NewtonIntegrator(damping=0.0, gravity=(0, 0, 0))]
-    O.dt = dt
-    O.run(int(0.3 / dt), True)
+    gout_all, used = _yade_collisions(g, betas, x0=x0, dt=dt, t_run=0.3)
+    assert used == dt
     beta = np.array(betas)
     t_contact = (x0 - SIGMA * np.sqrt(1 - beta ** 2)) / g      # free-flight contact time
     phase = t_contact / dt - np.floor(t_contact / dt)          # last contact-free step: t_contact - phase dt
     chi_lf, ratio_lf = K.leapfrog_collision(beta * SIGMA, g, SIGMA, MU, KN, dt, phase)
     chi_exact = K.deflection_angle(beta * SIGMA, g, SIGMA, MU, KN)
-    assert O.interactions.countReal() == 0
-    for i, (a, b) in enumerate(pairs):
-        gout = np.array(O.bodies[a].state.vel) - np.array(O.bodies[b].state.vel)
+    for i, gout in enumerate(gout_all):
         chi_yade = math.atan2(abs(gout[1]), gout[0])
         assert abs(chi_yade - chi_lf[i]) < 1e-12, (betas[i], chi_yade, chi_lf[i])   # measured <= 1.4e-15
         assert np.linalg.norm(gout) / g == pytest.approx(ratio_lf[i], abs=1e-12)
     assert np.abs(chi_lf - chi_exact)[1:].max() > 1e-4       # the step's own error (measured 8e-4) is visible
-    O.reset()
 
 
 def test_timestep_shift_against_monte_carlo_and_its_order():
