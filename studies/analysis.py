@@ -87,8 +87,46 @@ def load_records(spec):
     return engine.reconcile(spec, S.runs(spec, extra_seeds=extra), rdir), recs
 
 
+def gas_labels(spec):
+    """One label per distinct gas the spec's groups run: shape, material, gas table, run table
+    (a group's own ``dt_factor`` counts; the study's ``dt_factor`` and ``legacy_dt`` do not: those
+    pairs pool, docs/timestep.md)."""
+    out = []
+    for g in spec["groups"]:
+        mat, gas, run = S.group_tables(spec, g)
+        run = {k: v for k, v in run.items() if k not in ("dt_factor", "legacy_dt")}
+        key = json.dumps([g["shape"], mat, gas, run, g.get("dt_factor")], sort_keys=True, default=str)
+        label = (f"{g['shape']} at E = {mat['youngs_modulus']:g} Pa, N = {gas['n_particles']}"
+                 + (f", dt factor {g['dt_factor']:g}" if g.get("dt_factor") is not None else ""))
+        if key not in dict(out):
+            out.append((key, label))
+    return [label for _, label in out]
+
+
+def single_gas_problem(spec):
+    """None if the spec's groups run one gas (what the Fig. 2 tables describe: they are keyed by
+    case, protocol and seed); else a one-line message saying which gases and where their answers are."""
+    labels = gas_labels(spec)
+    if len(labels) <= 1:
+        return None
+    spheres_only = all(list(g["cases"]) == ["spheres"] for g in spec["groups"])
+    if spheres_only:
+        where = ("with python -m studies.sphere_gas" if spec["study"]["in_results"]
+                 else f"with python -m studies.sphere_gas --spec {spec['path']}")
+    elif spec["study"]["in_results"]:
+        where = "in results/effects.csv and results/README.md (python -m studies.report)"
+    else:
+        where = f"in its run records ({os.path.relpath(engine.results_dir(spec), S.ROOT)}/runs), which no table reads"
+    return (f"{spec['study']['name']}: its groups run {len(labels)} different gases ({'; '.join(labels)}), and "
+            f"the Fig. 2 tables (summary.csv, diff_D.csv, ...) describe one; read its answers {where}")
+
+
 def analyze(spec, log=print):
-    """Tables of a spec's finished runs (one shape: the Fig. 2 tables; see the module docstring)."""
+    """Tables of a spec's finished runs (one gas: the Fig. 2 tables; see the module docstring).
+    Raises ValueError for a spec whose groups run several gases (:func:`single_gas_problem`)."""
+    problem = single_gas_problem(spec)
+    if problem:
+        raise ValueError(problem)
     t0 = time.time()
     a = spec["analysis"]
     out = engine.results_dir(spec)

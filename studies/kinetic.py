@@ -18,7 +18,7 @@ non-uniform gases*, ch. 9-10):
   Maxwellian of relative speeds, Gauss-Legendre over impact parameters).  Hard spheres:
   (3 / (8 n sigma^2)) sqrt(kT / (pi m)).
 * ``d_boltzmann``: D of the linear Boltzmann equation for a tagged particle in the equilibrium gas
-  with no Sonine truncation, by sampling the tagged particle's velocity Markov chain at its
+  (infinite, or the periodic gas of N particles with zero total momentum) with no Sonine truncation, by sampling the tagged particle's velocity Markov chain at its
   collisions (partners drawn from the Maxwellian weighted by the relative speed, impact
   parameters uniform over the disc) and summing its Green-Kubo series over collisions, with the
   mean free flight 1/lambda(v) of each velocity state in place of the sampled flight (a
@@ -127,7 +127,8 @@ def leapfrog_collision(b, g, sigma, mu, kn, dt, phase=0.5, max_steps=1_000_000):
 
     Returns (chi [rad], g_out/g): the deflection of the relative velocity and the ratio of the
     outgoing to the incoming relative speed (1 for the exact orbit; the step's energy error is
-    g_out^2/g^2 - 1).  As dt -> 0, chi tends to :func:`deflection_angle` at second order.
+    g_out^2/g^2 - 1).  As dt -> 0, chi averaged over the phase tends to :func:`deflection_angle`
+    at second order (at one fixed phase the error is not monotone in dt).
     """
     b, g, phase = (np.array(a, float) for a in np.broadcast_arrays(b, g, phase))
     if not (dt > 0 and kn > 0 and mu > 0 and sigma > 0):
@@ -195,8 +196,9 @@ def timestep_shift(kT, mu, sigma, kn, dt, n_g=64, n_b=60, n_phase=16):
     delta D/D = -delta Omega/Omega, with Omega the Mason-Monchick collision integral
     ~ <g^2 q>, q = 1 - (g'/g) cos chi (= 1 - cos chi for the exact orbit), over the
     collision-rate-weighted Maxwellian (docs/timestep.md).  The collisions are those of
-    :func:`leapfrog_collision`, averaged over ``n_phase`` contact phases (midpoints); the same
-    Gauss-Laguerre (``n_g``) x Gauss-Legendre (``n_b``) rule as :func:`omega11` integrates both maps.
+    :func:`leapfrog_collision`, averaged over ``n_phase`` contact phases (midpoints); Gauss-Laguerre
+    (``n_g``, weight x^2 e^-x as in :func:`omega11`) x Gauss-Legendre (``n_b``) integrates both maps
+    (converged: 128 x 120 points and 32 phases change the 1e7 Pa gas's shift by 1e-3 of itself).
     kT [J], mu: reduced mass [kg], sigma [m], kn [N m^-3/2].
     """
     x, wx = roots_genlaguerre(n_g, 2.0)
@@ -255,8 +257,49 @@ def _scatter(gvec, chi, rng):
     return gn[:, None] * new
 
 
+def _tagged_chain(n, kT, m, sigma, kn, n_chains, seed, deflection=None, n_particles=None):
+    """The tagged particles' velocities at successive collisions (:func:`d_boltzmann`): yields
+    (v (n_chains, 3) [m/s], lambda(v) (n_chains,) [1/s], the collision rate of each state), started
+    from the tagged particle's Maxwellian; the chain's stationary law is that Maxwellian weighted by
+    lambda(v)."""
+    rng = np.random.default_rng(seed)
+    s = math.sqrt(kT / m)                  # thermal speed per component
+    if n_particles is None:
+        shift, s_w, n_partners = 0.0, s, n
+    else:
+        big_n = int(n_particles)
+        shift = 1.0 / (big_n - 1)          # partners' mean velocity: -v/(N-1)
+        s_w = s * math.sqrt(big_n * (big_n - 2)) / (big_n - 1)
+        n_partners = n * (big_n - 1) / big_n
+    w_cap = 7.0 * s_w                      # partners further than 7 s_w from their mean (P ~ 1e-10) are redrawn
+    area = math.pi * sigma ** 2
+    mu = 0.5 * m
+    if deflection is None:
+        def deflection(b, g):
+            return deflection_angle(b, g, sigma, mu, kn)
+    v = rng.normal(0.0, s, (n_chains, 3))
+    while True:
+        speed = np.linalg.norm(v, axis=1)
+        rel = speed * (1.0 + shift)        # |v - mean partner velocity|
+        yield v, n_partners * area * mean_relative_speed(rel, s_w)
+        # partner w ~ its Maxwellian given v, weighted by |v - w| (rejection against |v - c| + w_cap)
+        w = np.empty_like(v)
+        todo = np.arange(n_chains)
+        while todo.size:
+            dev = rng.normal(0.0, s_w, (todo.size, 3))
+            cand = dev - shift * v[todo]
+            g = np.linalg.norm(v[todo] - cand, axis=1)
+            ok = (np.linalg.norm(dev, axis=1) <= w_cap) & (rng.uniform(size=todo.size) * (rel[todo] + w_cap) < g)
+            w[todo[ok]] = cand[ok]
+            todo = todo[~ok]
+        gvec = v - w
+        b = sigma * np.sqrt(rng.uniform(size=n_chains))     # uniform over the disc
+        chi = deflection(b, np.linalg.norm(gvec, axis=1))
+        v = 0.5 * (v + w) + 0.5 * _scatter(gvec, chi, rng)
+
+
 def d_boltzmann(n, kT, m, sigma, kn=None, n_chains=2000, n_steps=1000, window=12, burn_in=20,
-                seed=0, deflection=None):
+                seed=0, deflection=None, n_particles=None):
     """Self-diffusion coefficient [m^2/s] of the dilute gas from the linear Boltzmann equation.
 
     Returns (D, standard error).  ``n_chains`` independent tagged-particle chains of ``n_steps``
@@ -271,43 +314,36 @@ def d_boltzmann(n, kT, m, sigma, kn=None, n_chains=2000, n_steps=1000, window=12
     ``window`` = 12 leaves ~1e-5 of D out.  The standard error is the spread over the
     independent chains.  ``deflection(b, g)`` replaces the Hertz/hard-sphere deflection (tests);
     a particle interacts whenever b < sigma.
+
+    ``n_particles`` = N: the periodic gas of N particles with zero total momentum, with n = N/V and
+    kT from the mean kinetic energy per particle, as the runs measure them.  Its equilibrium is the
+    Maxwellian conditioned on sum v = 0, so a tagged particle at v meets N - 1 others (partner density
+    n (N-1)/N: its own images move with it and never collide) whose velocities are Gaussian with mean
+    -v/(N-1) and variance (kT/m) N (N-2)/(N-1)^2 per component; the pair collision conserves that law.
+    The two 1/N effects have opposite signs (fewer partners: D up; partners recoiling against the
+    tagged particle's momentum: D down).  None: the infinite gas.
     """
     if not (n > 0 and kT > 0 and m > 0 and sigma > 0):
         raise ValueError("n, kT, m and sigma must be > 0")
     if not (n_chains >= 2 and n_steps > window >= 0 and burn_in >= 0):
         raise ValueError("need n_chains >= 2 and n_steps > window >= 0")
-    rng = np.random.default_rng(seed)
-    s = math.sqrt(kT / m)                  # thermal speed per component
-    w_cap = 7.0 * s                        # partners with |w| > 7 s (P ~ 1e-10) are redrawn
-    area = math.pi * sigma ** 2
-    mu = 0.5 * m
-    if deflection is None:
-        def deflection(b, g):
-            return deflection_angle(b, g, sigma, mu, kn)
-    v = rng.normal(0.0, s, (n_chains, 3))
+    if n_particles is not None and not (isinstance(n_particles, (int, np.integer)) and n_particles >= 3):
+        raise ValueError(f"n_particles must be an integer >= 3 (or None: infinite gas), got {n_particles!r}")
     x = np.empty((n_steps, n_chains, 3))
+    chain = _tagged_chain(n, kT, m, sigma, kn, n_chains, seed, deflection, n_particles)
     for step in range(burn_in + n_steps):
-        speed = np.linalg.norm(v, axis=1)
+        v, lam = next(chain)
         if step >= burn_in:
-            x[step - burn_in] = v / (n * area * mean_relative_speed(speed, s))[:, None]
-        # partner w ~ Maxwellian weighted by |v - w| (rejection against |v| + w_cap)
-        w = np.empty_like(v)
-        todo = np.arange(n_chains)
-        while todo.size:
-            cand = rng.normal(0.0, s, (todo.size, 3))
-            g = np.linalg.norm(v[todo] - cand, axis=1)
-            ok = (np.linalg.norm(cand, axis=1) <= w_cap) & (rng.uniform(size=todo.size) * (speed[todo] + w_cap) < g)
-            w[todo[ok]] = cand[ok]
-            todo = todo[~ok]
-        gvec = v - w
-        b = sigma * np.sqrt(rng.uniform(size=n_chains))     # uniform over the disc
-        chi = deflection(b, np.linalg.norm(gvec, axis=1))
-        v = 0.5 * (v + w) + 0.5 * _scatter(gvec, chi, rng)
+            x[step - burn_in] = v / lam[:, None]
+    n_partners = n if n_particles is None else n * (n_particles - 1) / n_particles
+    area = math.pi * sigma ** 2
     origins = n_steps - window
     per_chain = np.zeros(n_chains)
     for k in range(window + 1):
         per_chain += np.einsum("jci,jci->c", x[:origins], x[k:k + origins]) / origins
-    lam_mean = n * area * math.sqrt(16.0 * kT / (math.pi * m))
+    # <lambda> over the tagged particle's Maxwellian: v - w is Gaussian with variance (kT/m) 2N/(N-1)
+    lam_mean = n_partners * area * math.sqrt(16.0 * kT / (math.pi * m)) * (
+        1.0 if n_particles is None else math.sqrt(n_particles / (n_particles - 1.0)))
     per_chain *= lam_mean / 3.0
     return float(per_chain.mean()), float(per_chain.std(ddof=1) / math.sqrt(n_chains))
 
@@ -343,13 +379,18 @@ class SphereGas:
         return hertz_kn(self.youngs_modulus, self.poisson, r, r)
 
     def predictions(self, n_chains=2000, n_steps=3000, seed=0):
-        """Dict of the kinetic-theory D's [m^2/s] for this gas (dilute Boltzmann, / Enskog chi)."""
+        """Dict of the kinetic-theory D's [m^2/s] for this gas (dilute Boltzmann, / Enskog chi): the
+        full Boltzmann D's for its N particles with zero total momentum (1/N effects: -0.1 % at N = 864,
+        within their Monte Carlo error), the first Chapman-Enskog ones for the infinite gas (at that
+        order the two 1/N effects cancel)."""
         n, kT, m, sig = self.number_density, self.kT, self.mass, self.diameter
         chi = enskog_chi(self.volume_fraction)
         d_hs1 = d_hard_spheres_first(n, kT, m, sig)
         d_hz1 = d_first_approximation(n, kT, m, sig, self.kn)
-        d_hs, se_hs = d_boltzmann(n, kT, m, sig, None, n_chains, n_steps, seed=seed)
-        d_hz, se_hz = d_boltzmann(n, kT, m, sig, self.kn, n_chains, n_steps, seed=seed + 1)
+        # the Boltzmann D of this periodic gas: N particles, zero total momentum (d_boltzmann)
+        big_n = int(self.n_particles)
+        d_hs, se_hs = d_boltzmann(n, kT, m, sig, None, n_chains, n_steps, seed=seed, n_particles=big_n)
+        d_hz, se_hz = d_boltzmann(n, kT, m, sig, self.kn, n_chains, n_steps, seed=seed + 1, n_particles=big_n)
         # softness: the log-derivative of D in E (first order, central difference over +-10 %).  At
         # fixed velocities, masses scaled by lambda act as kn / lambda, so a mass error x changes D
         # by about -dlnD_dlnE * ln(1 + x); hard spheres (dlnD_dlnE = 0) do not see it.

@@ -16,8 +16,9 @@ m, sigma, E and nu: hard spheres and Hertz spheres, first Chapman-Enskog approxi
 full linear Boltzmann solution, each divided by the Enskog factor.  ``ratio_hertz`` is
 D_measured / D_Hertz,Boltzmann with a 95 % Fieller interval that carries both errors: the runs'
 Student-t mean and the prediction's own Monte Carlo error (``d_hertz_boltzmann_se``, ~0.1 %,
-over ``n_chains`` independent chains; :func:`studies.estimators.fieller_from_means`, whose
-coverage is tested; ignoring the theory's error covered 91.8 % at the 1e7 Pa gas's sizes).
+over ``n_chains`` independent chains; :func:`studies.estimators.fieller_from_means` with the
+runs' n - 1 dof, whose coverage is tested; ignoring the theory's error covered 91.8 % at the
+1e7 Pa gas's sizes).
 ``dt_effect`` is the relative change of D that the runs' time step ``dt`` [s] makes
 (:func:`studies.kinetic.timestep_shift`: the collision map as YADE's leapfrog resolves it; the
 predictions are for the exact orbit).  ``dlnD_dlnE`` is the softness of D: at fixed velocities a mass scaled by lambda acts as the
@@ -72,7 +73,7 @@ def gases_from_records(specs):
             gas = dict(n_particles=p["gas"]["n_particles"], box_length=rec["box_length"],
                        diameter=2.0 * body["radius"], mass=body["mass"],
                        youngs_modulus=p["material"]["youngs_modulus"], poisson=p["material"]["poisson"],
-                       dt=S.time_step(p))
+                       dt=rec["facts"].get("dt") or S.time_step(p))     # the step the run used
             g = design.run_d(rec, sp["analysis"]["t_eq"])
             key = (sp["study"]["name"],) + tuple(sorted(gas.items()))
             entry = groups.setdefault(key, {"source": f"{sp['study']['name']} (Green-Kubo)", "gas": gas,
@@ -133,7 +134,7 @@ def rows(specs, n_chains=2000, n_steps=3000, log=print, first_version=True):
             lo = hi = np.nan
             if g["n_runs"] > 1:        # both errors: the runs' mean and the theory's Monte Carlo
                 _, lo, hi, _ = fieller_from_means(g["D"], g["stderr"] ** 2, g["n_runs"] - 1,
-                                                  ref, ref_se ** 2, n_chains - 1)
+                                                  ref, ref_se ** 2, n_chains - 1, dof=g["n_runs"] - 1)
             row[f"ratio_{name}_ci_low"], row[f"ratio_{name}_ci_high"] = lo, hi
         out.append(row)
     out.sort(key=lambda r: (r["youngs_modulus"], r["source"]))
@@ -192,7 +193,7 @@ def main(argv=None):
         out = a.out or os.path.join(RESULTS, "sphere_gas.csv")
         rs = write(results_specs(), out, log=log)
     for r in rs:
-        print(f"{r['source']}: E = {r['youngs_modulus']:g} Pa, N = {r['n_particles']}, {r['n_runs']} runs: "
+        print(f"{r['source']}: E = {r['youngs_modulus']:g} Pa, N = {r['n_particles']}, {r['n_runs']} run{'s' * (r['n_runs'] != 1)}: "
               f"D = {r['D']:.4g} [{r['ci_low']:.4g}, {r['ci_high']:.4g}] m^2/s; Hertz-Boltzmann "
               f"{r['d_hertz_boltzmann']:.4g}: D/D_Hertz - 1 = {100 * (r['ratio_hertz'] - 1):+.2f} % "
               f"[{100 * (r['ratio_hertz_ci_low'] - 1):+.2f}, {100 * (r['ratio_hertz_ci_high'] - 1):+.2f}] %; "

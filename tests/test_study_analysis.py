@@ -606,3 +606,25 @@ def test_state_key_is_the_initial_state():
     for p in other:
         assert effects.state_key(p) != effects.state_key(base)
         assert S.run_input(p)["initial"]["vel"] != init["vel"]
+
+
+def test_fig2_tables_refuse_a_spec_of_several_gases(capsys):
+    """The Fig. 2 tables are keyed by case, protocol and seed: a spec whose groups run different gases
+    (shapes, stiffnesses, sizes, a group's own time step) would mix them.  `analyze` refuses it, and
+    `python -m studies analyze` says where its answers are and exits 1 before reading any record;
+    the study's own time step and its legacy step pool (one gas)."""
+    from studies.__main__ import main
+    for name in ("paper", "dimer_paired", "dimer_equal_energy", "test"):
+        assert analysis.single_gas_problem(S.load(f"{S.SPEC_DIR}/{name}.toml")) is None
+    shapes = S.load(f"{S.SPEC_DIR}/shapes.toml")
+    msg = analysis.single_gas_problem(shapes)
+    assert msg and "4 different gases" in msg and "results/effects.csv" in msg
+    with pytest.raises(ValueError, match="4 different gases"):
+        analysis.analyze(shapes)
+    with open(f"{S.SPEC_DIR}/paper.toml", "rb") as f:
+        raw = tomllib.load(f)
+    raw["groups"][1]["dt_factor"] = 0.25                 # a convergence check inside the spec
+    assert "2 different gases" in analysis.single_gas_problem(S.validate(raw))
+    assert main(["analyze", f"{S.SPEC_DIR}/sphere_gas_size.toml"]) == 1
+    err = capsys.readouterr().err
+    assert "N = 108; dimer at E = 1e+07 Pa, N = 288" in err and "studies.sphere_gas --spec" in err
