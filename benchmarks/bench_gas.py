@@ -4,6 +4,9 @@
    recording (``record: true``) and bare (no recording PyRunner), two YADE processes side by
    side on the two cores, repeated with the start order swapped.  Target: recorded steps/s
    >= 0.95 x bare.
+2b. Collider padding: the study's ``verletDist`` (three bounding radii, set by the gas script)
+   against YADE's default (run file ``verlet_dist = -0.5``), side by side; the trajectories are
+   the same to the last bit (tests/test_study_engine.py), so this is speed only.
 2. Correction bodies: the exact dimer as the study builds it now (``appendClumped`` with the
    exact mass and I_perp set: 3 bodies per clump) against the first version's build
    (``clumpprops.yade.append_clump``: one extra correction member per clump), side by side.
@@ -14,8 +17,10 @@
    O(T^2) definition; fitted exponents.
 
     .venv/bin/python benchmarks/bench_gas.py [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
+                                             [--parts recording,collider,correction,driver,msd]
 
-Writes benchmarks/results/bench_gas.json and prints a Markdown table.  The machine is
+Writes benchmarks/results/bench_gas.json (the parts run replace theirs; the others are kept) and
+prints a Markdown table.  The machine is
 shared: steps/s depend on what else runs; the side-by-side pairs see the same load.
 """
 from __future__ import annotations
@@ -69,9 +74,13 @@ def side_by_side(t_end, repeats, variants):
         for r in range(repeats):
             order = labels if r % 2 == 0 else labels[::-1]
             procs = {lab: start(tmp, f"{lab}{r}", variants[lab]) for lab in order}
+            cpu = {}
             for lab, p in procs.items():
-                if p.wait() != 0:
+                _, status, ru = os.wait4(p.pid, 0)      # the process's own CPU time: robust to a loaded machine
+                p.returncode = os.waitstatus_to_exitcode(status)
+                if p.returncode != 0:
                     raise RuntimeError(f"yade run {lab}{r} failed")
+                cpu[lab] = ru.ru_utime + ru.ru_stime
             res = {}
             for lab in labels:
                 with open(os.path.join(tmp, f"{lab}{r}.json")) as f:
@@ -80,10 +89,13 @@ def side_by_side(t_end, repeats, variants):
             for lab in labels:
                 row[f"steps_per_s_{lab}"] = res[lab]["steps_per_s"]
                 row[f"bodies_{lab}"] = res[lab]["n_bodies"]
+                row[f"cpu_s_{lab}"] = cpu[lab]
             row["ratio"] = res[labels[0]]["steps_per_s"] / res[labels[1]]["steps_per_s"]
+            row["cpu_ratio"] = cpu[labels[0]] / cpu[labels[1]]     # whole process, YADE's start-up included
             rows.append(row)
-            print(f"[bench] pair {r}: " + ", ".join(f"{lab} {row[f'steps_per_s_{lab}']:.0f} steps/s" for lab in labels)
-                  + f", ratio {labels[0]}/{labels[1]} {row['ratio']:.3f}", flush=True)
+            print(f"[bench] pair {r}: " + ", ".join(f"{lab} {row[f'steps_per_s_{lab}']:.0f} steps/s, "
+                                                   f"{cpu[lab]:.1f} CPU-s" for lab in labels)
+                  + f"; {labels[0]}/{labels[1]}: steps/s {row['ratio']:.3f}, CPU {row['cpu_ratio']:.3f}", flush=True)
     return rows
 
 
@@ -147,28 +159,54 @@ def main():
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--n-runs", type=int, default=8)
     ap.add_argument("--skip-yade", action="store_true")
+    ap.add_argument("--parts", default="recording,collider,correction,driver,msd",
+                    help="which benchmarks to run (comma-separated)")
     a = ap.parse_args()
-    res = {"machine": os.uname().nodename, "cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg(),
-           "date": time.strftime("%Y-%m-%d %H:%M")}
-    if not a.skip_yade:
-        rin = paper_run_input(a.t_end)
+    parts = set(a.parts.split(","))
+    unknown = parts - {"recording", "collider", "correction", "driver", "msd"}
+    if unknown:
+        ap.error(f"unknown parts: {', '.join(sorted(unknown))}")
+    if a.skip_yade:
+        parts &= {"msd"}
+    out_path = os.path.join(ROOT, "benchmarks", "results", "bench_gas.json")
+    res = {}
+    if os.path.exists(out_path):
+        with open(out_path) as f:
+            res = json.load(f)
+    stamp = {"machine": os.uname().nodename, "cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg(),
+             "date": time.strftime("%Y-%m-%d %H:%M")}
+    res.setdefault("runs_of_parts", {}).update({p: stamp for p in sorted(parts)})
+    rin = paper_run_input(a.t_end) if parts - {"msd", "driver"} else None
+    if "recording" in parts:
         bare = dict(rin, record=False)
         res["recording"] = side_by_side(a.t_end, a.repeats, {"recorded": rin, "bare": bare})
         res["recording_ratio_mean"] = float(np.mean([r["ratio"] for r in res["recording"]]))
+    if "collider" in parts:
+        res["collider"] = side_by_side(a.t_end, a.repeats, {"padded": rin, "default": dict(rin, verlet_dist=-0.5)})
+        res["collider_ratio_mean"] = float(np.mean([r["ratio"] for r in res["collider"]]))
+        res["collider_cpu_ratio_mean"] = float(np.mean([r["cpu_ratio"] for r in res["collider"]]))
+    if "correction" in parts:
         old = copy.deepcopy(rin)
         old["body"]["builder"] = "clumpprops"
         res["correction_bodies"] = side_by_side(a.t_end, a.repeats, {"now": rin, "first_version": old})
         res["correction_ratio_mean"] = float(np.mean([r["ratio"] for r in res["correction_bodies"]]))
+    if "driver" in parts:
         res["driver"] = bench_driver(a.n_runs)
-    rows, ef, eb = bench_msd()
-    res.update(msd=rows, msd_fft_exponent=ef, msd_bruteforce_exponent=eb)
-    os.makedirs(os.path.join(ROOT, "benchmarks", "results"), exist_ok=True)
-    with open(os.path.join(ROOT, "benchmarks", "results", "bench_gas.json"), "w") as f:
+    if "msd" in parts:
+        rows, ef, eb = bench_msd()
+        res.update(msd=rows, msd_fft_exponent=ef, msd_bruteforce_exponent=eb)
+    os.makedirs(os.path.dirname(out_path), exist_ok=True)
+    with open(out_path, "w") as f:
         json.dump(res, f, indent=1, default=float)
     print("\n| benchmark | result |\n|---|---|")
     for r in res.get("recording", []):
         print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | recorded {r['steps_per_s_recorded']:.0f} "
               f"steps/s, bare {r['steps_per_s_bare']:.0f} steps/s, ratio {r['ratio']:.3f} (target >= 0.95) |")
+    for r in res.get("collider", []):
+        print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | collider padded 3 bounding radii "
+              f"{r['steps_per_s_padded']:.0f} steps/s, YADE's default {r['steps_per_s_default']:.0f} steps/s, "
+              f"ratio {r['ratio']:.3f}; CPU {r['cpu_s_padded']:.1f} s against {r['cpu_s_default']:.1f} s, "
+              f"ratio {r['cpu_ratio']:.3f} |")
     for r in res.get("correction_bodies", []):
         print(f"| exact dimer gas, pair {r['repeat']} | now ({r['bodies_now']} bodies) {r['steps_per_s_now']:.0f} "
               f"steps/s, first version ({r['bodies_first_version']} bodies) {r['steps_per_s_first_version']:.0f} "
@@ -177,10 +215,12 @@ def main():
         d = res["driver"]
         print(f"| driver + Dask overhead | {d['overhead_per_run_s']:.2f} s per run over {d['n_runs']} runs "
               f"(target <= 1 s) |")
-    for r in res["msd"]:
-        bf = f"{r['bruteforce_s']:.2f} s" if np.isfinite(r["bruteforce_s"]) else "-"
+    for r in res.get("msd", []):
+        bf = f"{r['bruteforce_s']:.2f} s" if r["bruteforce_s"] is not None and np.isfinite(r["bruteforce_s"]) else "-"
         print(f"| MSD, {r['frames']} frames x 864 | FFT {r['fft_s']:.2f} s, brute force {bf} |")
-    print(f"| MSD cost exponent (T >= 1000) | FFT {ef:.2f}, brute force {eb:.2f} |")
+    if "msd_fft_exponent" in res:
+        print(f"| MSD cost exponent (T >= 1000) | FFT {res['msd_fft_exponent']:.2f}, brute force "
+              f"{res['msd_bruteforce_exponent']:.2f} |")
 
 
 if __name__ == "__main__":

@@ -429,3 +429,31 @@ def test_prepare_writes_run_files_a_plain_yade_batch_line_can_run(tmp_path):
     assert rin["n_steps"] * rin["dt"] == pytest.approx(1.0, abs=rin["dt"])
     n_frames = rin["n_steps"] // rin["rec_steps"] + 1
     assert z["t"][-1] == pytest.approx(((n_frames - 1) * rin["rec_steps"] + 1) * rin["dt"], rel=1e-12)
+
+
+def test_collider_verlet_distance_is_speed_only(tmp_path):
+    """The gas script pads the collider's bounds by three bounding radii (fewer re-sorts in the dilute
+    gas); contacts still come from the exact geometry every step, so a colliding gas records the same
+    trajectory as with YADE's default padding (run file ``verlet_dist = -0.5``), to the last bit."""
+    sp = tiny(tmp_path, t_end=6.0, cases=("exact",))
+    run = S.runs(sp)[0]
+    rin = S.run_input(run["params"])
+    outs = {}
+    for tag, extra in (("study", {}), ("default", {"verlet_dist": -0.5})):
+        d = tmp_path / tag
+        d.mkdir()
+        (d / "run.json").write_text(json.dumps(dict(rin, **extra)))
+        (d / "t").write_text(f"run out\n{str(d / 'run.json')!r} {str(d / 'out')!r}\n")
+        env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{d / 't'}:2", CLUMPPROPS_ROOT=ROOT)
+        r = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "yade_scripts", "granular_gas.py")], env=env,
+                           cwd=d, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+        outs[tag] = (np.load(d / "out.npz"), json.loads((d / "out.json").read_text()))
+    (za, fa), (zb, fb) = outs["study"], outs["default"]
+    rb, r = 0.0333 + 0.0667, 0.0667                       # the dimer's bounding and member radii
+    assert fb["verlet_dist"] == -0.5
+    assert fa["verlet_dist"] == pytest.approx(min(3 * rb, rin["box_length"] / 8 - r), rel=1e-3)
+    assert fa["verlet_dist"] > 0.1                        # padded well beyond the default 0.033 m
+    assert za["e_elastic"].max() > 0                      # the gas collided
+    for k in ("disp", "vel", "e_trans", "e_rot", "e_elastic", "momentum"):
+        np.testing.assert_array_equal(za[k], zb[k])
