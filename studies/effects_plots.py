@@ -170,7 +170,7 @@ def plot_all(results, log=print):
             ax.plot([], [], mk, color="k", mfc="k" if gk else "white", label=src)
         ax.set_xscale("log")
         ax.set_xlabel("Young's modulus E (Pa)")
-        made.append(_finish(fig, ax, 1, "D ratio, 95 % CI over seeds", "Sphere gas against kinetic theory",
+        made.append(_finish(fig, ax, 1, "D ratio, 95 % CI (runs and theory)", "Sphere gas against kinetic theory",
                             results, "sphere_gas.png"))
     for m in made:
         log(f"[plot] {m}")
