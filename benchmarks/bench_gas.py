@@ -4,12 +4,12 @@
    recording (``record: true``) and bare (no recording PyRunner), two YADE processes side by
    side on the two cores, repeated with the start order swapped.  Target: recorded steps/s
    >= 0.95 x bare.
-2b. Collider padding: the study's ``verletDist`` (three bounding radii, set by the gas script)
-   against YADE's default (run file ``verlet_dist = -0.5``), side by side; the trajectories are
-   the same to the last bit (tests/test_study_engine.py), so this is speed only.
 2. Correction bodies: the exact dimer as the study builds it now (``appendClumped`` with the
    exact mass and I_perp set: 3 bodies per clump) against the first version's build
    (``clumpprops.yade.append_clump``: one extra correction member per clump), side by side.
+2b. Collider padding: the study's ``verletDist`` (three bounding radii, set by the gas script)
+   against YADE's default (run file ``verlet_dist = -0.5``), side by side; the trajectories are
+   the same to the last bit (tests/test_study_engine.py), so this is speed only.
 3. Driver + Dask overhead per run: a sweep of N tiny runs (27 particles, 1.5 s) on a
    LocalCluster of one worker; overhead = (sweep wall - sum of the YADE processes' wall) / N.
    Target: <= 1 s per run.

@@ -91,16 +91,14 @@ def gas_labels(spec):
     """One label per distinct gas the spec's groups run: shape, material, gas table, run table
     (a group's own ``dt_factor`` counts; the study's ``dt_factor`` and ``legacy_dt`` do not: those
     pairs pool, docs/timestep.md)."""
-    out = []
+    out = {}                   # gas key -> label, in the groups' order
     for g in spec["groups"]:
         mat, gas, run = S.group_tables(spec, g)
         run = {k: v for k, v in run.items() if k not in ("dt_factor", "legacy_dt")}
         key = json.dumps([g["shape"], mat, gas, run, g.get("dt_factor")], sort_keys=True, default=str)
-        label = (f"{g['shape']} at E = {mat['youngs_modulus']:g} Pa, N = {gas['n_particles']}"
-                 + (f", dt factor {g['dt_factor']:g}" if g.get("dt_factor") is not None else ""))
-        if key not in dict(out):
-            out.append((key, label))
-    return [label for _, label in out]
+        out.setdefault(key, f"{g['shape']} at E = {mat['youngs_modulus']:g} Pa, N = {gas['n_particles']}"
+                       + (f", dt factor {g['dt_factor']:g}" if g.get("dt_factor") is not None else ""))
+    return list(out.values())
 
 
 def single_gas_problem(spec):

@@ -435,7 +435,7 @@ def fieller_from_means(ma, va, dfa, mb, vb, dfb, conf=0.95, dof=None):
     standard error over n_chains independent chains (``studies.kinetic.d_boltzmann``), so the
     interval of D_measured / D_theory carries both errors.  There ``dof = dfa``: the theory's
     variance, from 1,999 dof, is as good as known, and Welch-Satterthwaite's dof, which grow when
-    a known variance is added, under-cover with few runs (94.3 % at 4 runs; tests/test_estimators.py).
+    a known variance is added, under-cover with few runs (94.1-94.3 % at 4 runs; tests/test_estimators.py).
     """
     if not all(math.isfinite(x) for x in (ma, va, mb, vb)):
         raise ValueError(f"need finite means and variances, got ma={ma}, va={va}, mb={mb}, vb={vb}")

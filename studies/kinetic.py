@@ -257,20 +257,32 @@ def _scatter(gvec, chi, rng):
     return gn[:, None] * new
 
 
+def _partner_law(n, kT, m, n_particles=None):
+    """The law of a tagged particle's collision partners (:func:`d_boltzmann`): (shift, s_w,
+    n_partners, g_mean).  Given the tagged velocity v, partners are Gaussian with mean -shift v and
+    sd s_w per component [m/s], at number density n_partners [m^-3]; g_mean [m/s] is the mean
+    relative speed E|v - w| over the tagged particle's Maxwellian.  n_particles None: the infinite
+    gas (shift 0, s_w = sqrt(kT/m), n); N: the periodic gas of N particles with zero momentum."""
+    if n_particles is not None and not (isinstance(n_particles, (int, np.integer)) and n_particles >= 3):
+        raise ValueError(f"n_particles must be an integer >= 3 (or None: infinite gas), got {n_particles!r}")
+    s = math.sqrt(kT / m)                  # thermal speed per component
+    g_mean = math.sqrt(16.0 * kT / (math.pi * m))
+    if n_particles is None:
+        return 0.0, s, n, g_mean
+    big_n = int(n_particles)
+    # v - w is Gaussian with variance (kT/m) 2N/(N-1) per component over the tagged Maxwellian
+    return (1.0 / (big_n - 1), s * math.sqrt(big_n * (big_n - 2)) / (big_n - 1), n * (big_n - 1) / big_n,
+            g_mean * math.sqrt(big_n / (big_n - 1.0)))
+
+
 def _tagged_chain(n, kT, m, sigma, kn, n_chains, seed, deflection=None, n_particles=None):
     """The tagged particles' velocities at successive collisions (:func:`d_boltzmann`): yields
     (v (n_chains, 3) [m/s], lambda(v) (n_chains,) [1/s], the collision rate of each state), started
     from the tagged particle's Maxwellian; the chain's stationary law is that Maxwellian weighted by
     lambda(v)."""
+    shift, s_w, n_partners, _ = _partner_law(n, kT, m, n_particles)   # partners' mean velocity: -shift v
     rng = np.random.default_rng(seed)
     s = math.sqrt(kT / m)                  # thermal speed per component
-    if n_particles is None:
-        shift, s_w, n_partners = 0.0, s, n
-    else:
-        big_n = int(n_particles)
-        shift = 1.0 / (big_n - 1)          # partners' mean velocity: -v/(N-1)
-        s_w = s * math.sqrt(big_n * (big_n - 2)) / (big_n - 1)
-        n_partners = n * (big_n - 1) / big_n
     w_cap = 7.0 * s_w                      # partners further than 7 s_w from their mean (P ~ 1e-10) are redrawn
     area = math.pi * sigma ** 2
     mu = 0.5 * m
@@ -327,24 +339,18 @@ def d_boltzmann(n, kT, m, sigma, kn=None, n_chains=2000, n_steps=1000, window=12
         raise ValueError("n, kT, m and sigma must be > 0")
     if not (n_chains >= 2 and n_steps > window >= 0 and burn_in >= 0):
         raise ValueError("need n_chains >= 2 and n_steps > window >= 0")
-    if n_particles is not None and not (isinstance(n_particles, (int, np.integer)) and n_particles >= 3):
-        raise ValueError(f"n_particles must be an integer >= 3 (or None: infinite gas), got {n_particles!r}")
+    _, _, n_partners, g_mean = _partner_law(n, kT, m, n_particles)
     x = np.empty((n_steps, n_chains, 3))
     chain = _tagged_chain(n, kT, m, sigma, kn, n_chains, seed, deflection, n_particles)
     for step in range(burn_in + n_steps):
         v, lam = next(chain)
         if step >= burn_in:
             x[step - burn_in] = v / lam[:, None]
-    n_partners = n if n_particles is None else n * (n_particles - 1) / n_particles
-    area = math.pi * sigma ** 2
     origins = n_steps - window
     per_chain = np.zeros(n_chains)
     for k in range(window + 1):
         per_chain += np.einsum("jci,jci->c", x[:origins], x[k:k + origins]) / origins
-    # <lambda> over the tagged particle's Maxwellian: v - w is Gaussian with variance (kT/m) 2N/(N-1)
-    lam_mean = n_partners * area * math.sqrt(16.0 * kT / (math.pi * m)) * (
-        1.0 if n_particles is None else math.sqrt(n_particles / (n_particles - 1.0)))
-    per_chain *= lam_mean / 3.0
+    per_chain *= n_partners * math.pi * sigma ** 2 * g_mean / 3.0      # <lambda> over the tagged Maxwellian
     return float(per_chain.mean()), float(per_chain.std(ddof=1) / math.sqrt(n_chains))
 
 
