@@ -142,6 +142,26 @@ def _rot_z(phi):
     return R
 
 
+
+def random_sequential_positions(rng, n, box, dmin):
+    """(n, 3) positions [m] uniform in the periodic cube of side ``box`` [m], every pair at least
+    ``dmin`` [m] apart (minimum image): random sequential addition with ``rng``.  RuntimeError
+    after 1000 n tries (the box too small)."""
+    pos = np.empty((n, 3))
+    k = 0
+    tries = 0
+    while k < n:
+        p = rng.uniform(0.0, box, 3)
+        d = pos[:k] - p
+        d -= box * np.round(d / box)
+        if k == 0 or np.min(np.einsum("ij,ij->i", d, d)) > dmin ** 2:
+            pos[k] = p
+            k += 1
+        tries += 1
+        if tries > 1000 * n:
+            raise RuntimeError("box too small to place the particles")
+    return pos
+
 def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass, exact_inertia=None,
                   case_inertia=None, protocol="paired", energy_per_particle=ENERGY_PER_PARTICLE,
                   start="zero_spin", linear=True, gap=0.02, spin_pairing="same"):
@@ -184,20 +204,7 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
     if spin_pairing not in SPIN_PAIRINGS:
         raise ValueError(f"unknown spin_pairing {spin_pairing!r} (known: {', '.join(SPIN_PAIRINGS)})")
     rng = np.random.default_rng(seed)
-    dmin = 2 * bounding_radius + gap
-    pos = np.empty((n_particles, 3))
-    k = 0
-    tries = 0
-    while k < n_particles:
-        p = rng.uniform(0.0, box, 3)
-        d = pos[:k] - p
-        d -= box * np.round(d / box)
-        if k == 0 or np.min(np.einsum("ij,ij->i", d, d)) > dmin ** 2:
-            pos[k] = p
-            k += 1
-        tries += 1
-        if tries > 1000 * n_particles:
-            raise RuntimeError("box too small to place the particles")
+    pos = random_sequential_positions(rng, n_particles, box, 2 * bounding_radius + gap)
     axes = rng.normal(size=(n_particles, 3))
     axes /= np.linalg.norm(axes, axis=1)[:, None]
     vel = rng.normal(size=(n_particles, 3))

@@ -340,16 +340,23 @@ def d_boltzmann(n, kT, m, sigma, kn=None, n_chains=2000, n_steps=1000, window=12
     if not (n_chains >= 2 and n_steps > window >= 0 and burn_in >= 0):
         raise ValueError("need n_chains >= 2 and n_steps > window >= 0")
     _, _, n_partners, g_mean = _partner_law(n, kT, m, n_particles)
-    x = np.empty((n_steps, n_chains, 3))
+    # the last window + 1 states in a ring buffer (memory O(window n_chains), not O(n_steps n_chains)):
+    # state s pairs with the origins s - k, k = 0..window, that are among the first n_steps - window
+    origins = n_steps - window
+    ring = np.empty((window + 1, n_chains, 3))
+    per_chain = np.zeros(n_chains)
     chain = _tagged_chain(n, kT, m, sigma, kn, n_chains, seed, deflection, n_particles)
     for step in range(burn_in + n_steps):
         v, lam = next(chain)
-        if step >= burn_in:
-            x[step - burn_in] = v / lam[:, None]
-    origins = n_steps - window
-    per_chain = np.zeros(n_chains)
-    for k in range(window + 1):
-        per_chain += np.einsum("jci,jci->c", x[:origins], x[k:k + origins]) / origins
+        if step < burn_in:
+            continue
+        s = step - burn_in
+        x = v / lam[:, None]
+        ring[s % (window + 1)] = x
+        for k in range(min(window, s) + 1):
+            if s - k < origins:
+                per_chain += np.einsum("ci,ci->c", ring[(s - k) % (window + 1)], x)
+    per_chain /= origins
     per_chain *= n_partners * math.pi * sigma ** 2 * g_mean / 3.0      # <lambda> over the tagged Maxwellian
     return float(per_chain.mean()), float(per_chain.std(ddof=1) / math.sqrt(n_chains))
 

@@ -345,3 +345,53 @@ def test_sphere_gas_cli_for_a_diagnostic_spec_refuses_without_runs(tmp_path, cap
         sphere_gas.main(["--spec", str(tmp_path / "s.toml"), "--out", str(out)])
     assert e.value.code == 1 and "nothing written" in capsys.readouterr().err
     assert not out.exists()
+
+
+def _md_entry(n, rel_enskog, se, runs=100, gk_bias=-0.002, gk_se=0.0007):
+    chi = 1.005
+    rel_b = (1 + rel_enskog) / chi - 1
+    gk = (1 + rel_enskog) * (1 + gk_bias) - 1
+    return dict(n=n, rho_sigma3=0.00382, number_density=0.4778, n_runs=runs, enskog_rel=1 / chi - 1,
+                d_exact_rel_boltzmann=rel_b, d_exact_rel_boltzmann_se=se, d_exact_rel_enskog=rel_enskog,
+                d_exact_rel_enskog_se=se, d_gk_rel_boltzmann=(1 + gk) / chi - 1, d_gk_rel_boltzmann_se=se / 2,
+                d_gk_rel_enskog=gk, d_gk_rel_enskog_se=se / 2, gk_minus_exact=gk_bias, gk_minus_exact_se=gk_se,
+                rate_rel_enskog=1e-4, rate_rel_enskog_se=4e-4)
+
+
+def test_hard_sphere_md_section_reads_its_file_and_judges_by_the_standard_error():
+    sphere = dict(n_particles=864.0, number_density=0.4778, n_runs=15.0, ratio_hertz=0.9957, youngs_modulus=1e7,
+                  source="sphere_gas (Green-Kubo)", ratio_hertz_ci_low=0.9917, ratio_hertz_ci_high=0.9997,
+                  estimator="green_kubo")
+    other = dict(sphere, n_particles=108.0)           # another N: no sentence of its own
+    ols = dict(sphere, estimator="ols_msd_125_175")   # another estimator: not "analysed the same way"
+    lines = []
+    report.hard_sphere_md_section(lines, [_md_entry(108, -0.004, 0.001), _md_entry(864, 0.0006, 0.0009),
+                                          _md_entry(288, 0.1, 0.1, runs=1)], [sphere, other, ols])
+    text = "\n".join(lines)
+    assert "| 864 | 0.00382 | 100 | " in text and "| 108 |" in text and "| 288 |" not in text   # one run: left out
+    assert "+0.060 % ± 0.090 % from Enskog's D_Boltzmann / chi (+0.7 standard errors" in text
+    assert "not resolved at this density" in text
+    assert "reads -0.200 % ± 0.070 % from the exact integral" in text and "(-2.9 standard errors: its exponential tail misses" in text
+    # the YADE gas against the hard-sphere gas analysed the same way: -0.43 % - (-0.14 %)
+    gk = (1.0006 * 0.998 - 1)
+    assert f"sits {100 * gk:+.2f} % from its own" in text and text.count("* The YADE sphere gas") == 1
+    se_r = 0.008 / (2 * 2.1447866879169273)
+    assert f"{100 * (-0.0043 - gk):+.3f} % ± {100 * math.hypot(se_r, 0.00045):.3f} %" in text
+    lines = []
+    report.hard_sphere_md_section(lines, [_md_entry(864, -0.004, 0.001, gk_bias=-0.001, gk_se=0.001)])
+    text = "\n".join(lines)
+    assert "leave them out" in text and ": not resolved)." in text
+    lines = []
+    report.hard_sphere_md_section(lines, [])
+    assert lines == []
+
+
+def test_committed_hard_sphere_md_collides_at_enskogs_rate():
+    """The committed event-driven runs of the study's gas (N = 864): the collision rate of hard
+    spheres is Enskog's exactly (chi the true contact value; Carnahan-Starling's is exact to
+    O(phi^2) here).  Smaller N carry O(1/N) corrections to the contact value of a closed gas, so
+    only the study's own N is held to it."""
+    from studies import hard_sphere_md
+    (e,) = [g for g in hard_sphere_md.read() if g["n"] == 864]
+    assert e["n_runs"] >= 100
+    assert abs(e["rate_rel_enskog"]) < 3 * e["rate_rel_enskog_se"]
