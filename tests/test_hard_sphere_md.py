@@ -78,6 +78,31 @@ def test_the_engine_follows_the_brute_force_event_loop(lib):
         assert np.max(np.abs(out["pos"] - (ref_x - ref_x[0] + out["pos"][0]))) < 1e-9
 
 
+def test_many_cells_follow_the_brute_force_event_loop(lib):
+    """30 spheres in a box of 12 sigma on 12 cells per side: collisions across cell faces, edges
+    and corners, and through the periodic boundary."""
+    rng = np.random.default_rng(8)
+    n, sigma, box = 30, 1.0, 12.0
+    pos, vel = H.initial_state(rng, n, box, sigma, kT=1.0, m=1.0)
+    ref_x, ref_v = brute_force(pos, vel, box, sigma, frames=13, frame_dt=0.5)
+    out = H.simulate(pos, vel, box, sigma, 13, frame_dt=0.5, n_cells=12, lib=lib)
+    assert out["n_coll"] >= 5
+    assert np.max(np.abs(out["vel"] - ref_v)) < 1e-9
+    assert np.max(np.abs(out["pos"] - (ref_x - ref_x[0] + out["pos"][0]))) < 1e-9
+
+
+def test_touching_and_approaching_spheres_collide_at_once(lib):
+    """Round-off can leave a pair exactly in contact and approaching: it collides now (and only
+    once), it never passes through; a touching pair moving apart does not collide."""
+    pos = np.array([[2.0, 2.0, 2.0], [3.0, 2.0, 2.0]])           # |r| = sigma exactly
+    vel = np.array([[0.5, 0.1, 0.0], [-0.5, 0.0, 0.0]])
+    out = H.simulate(pos, vel, 10.0, 1.0, 2, frame_dt=0.5, check_gaps=True, lib=lib)
+    assert out["n_coll"] == 1 and out["min_gap"] >= -1e-12
+    assert np.allclose(out["vel"][-1], [[-0.5, 0.1, 0.0], [0.5, 0.0, 0.0]], atol=1e-15)
+    out = H.simulate(pos, -vel, 10.0, 1.0, 2, frame_dt=0.5, lib=lib)
+    assert out["n_coll"] == 0
+
+
 def test_conservation_and_no_overlap_in_a_dense_gas(lib):
     rng = np.random.default_rng(5)
     n, sigma, phi = 256, 1.0, 0.25
@@ -93,7 +118,8 @@ def test_conservation_and_no_overlap_in_a_dense_gas(lib):
 
 
 def test_collision_rate_is_enskogs(lib):
-    """At phi = 0.1 the rate is chi = 1.303 times Boltzmann's; measured over 300k collisions."""
+    """At phi = 0.1 the rate is chi = 1.303 times Boltzmann's; measured over ~90k collisions (the
+    1 % tolerance is ~3 standard errors)."""
     rng = np.random.default_rng(11)
     n, sigma, phi, kT, m = 500, 1.0, 0.1, 1.0, 1.0
     box = (n * math.pi / 6.0 / phi) ** (1.0 / 3.0)
@@ -121,6 +147,33 @@ def test_exact_integral_of_free_flight():
         H.exact_integral(pos, vel, 0.25, 20.0)
 
 
+def test_exact_integral_pairs_each_velocity_with_the_displacement_after_it():
+    """Piecewise-constant random velocities: the integral to k frames is dt/3 times the sum over
+    lags m < k of the discrete velocity autocorrelation (a shifted pairing fails this)."""
+    rng = np.random.default_rng(4)
+    dt, T, n, k = 0.25, 60, 5, 7
+    vel = rng.normal(size=(T, n, 3))
+    pos = np.concatenate([np.zeros((1, n, 3)), np.cumsum(vel[:-1] * dt, axis=0)])
+    origins = T - k
+    want = sum(np.einsum("tni,tni->", vel[:origins], vel[m:m + origins]) for m in range(k)) * dt / (3 * origins * n)
+    assert H.exact_integral(pos, vel, dt, k * dt) == pytest.approx(want, rel=1e-12)
+
+
+def test_summary_uses_the_ratio_of_means_and_both_errors():
+    runs = [dict(d_gk=g, d_exact=x, rate=0.1 + 0.001 * i) for i, (g, x) in
+            enumerate([(9.0, 9.5), (9.2, 8.9), (8.8, 9.1), (9.1, 9.3)])]
+    e = H.summarise(dict(per_run=runs, d_boltzmann=9.0, d_boltzmann_se=0.01, enskog_chi=1.005, rate_enskog=0.1))
+    g, x = np.array([9.0, 9.2, 8.8, 9.1]), np.array([9.5, 8.9, 9.1, 9.3])
+    r = g.mean() / x.mean()
+    assert e["gk_minus_exact"] == pytest.approx(r - 1, rel=1e-12)          # not the mean of the ratios
+    assert e["gk_minus_exact_se"] == pytest.approx(np.std(g - r * x, ddof=1) / 2 / x.mean(), rel=1e-12)
+    se_run = np.std(g, ddof=1) / 2
+    assert e["d_gk_rel_boltzmann"] == pytest.approx(g.mean() / 9.0 - 1, rel=1e-12)
+    assert e["d_gk_rel_boltzmann_se"] == pytest.approx(math.hypot(se_run / 9.0, g.mean() * 0.01 / 81.0), rel=1e-12)
+    assert e["d_gk_rel_enskog_se"] == pytest.approx(1.005 * e["d_gk_rel_boltzmann_se"], rel=1e-12)
+    assert e["n_runs"] == 4 and e["rate_rel_enskog"] == pytest.approx(0.1015 / 0.1 - 1, rel=1e-12)
+
+
 def test_bad_input_is_refused(lib):
     pos = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
     vel = np.zeros((2, 3))
@@ -134,7 +187,8 @@ def test_bad_input_is_refused(lib):
         H.simulate(pos * 4, vel * np.nan, 10.0, 1.0, 2, lib=lib)
 
 
-def test_the_command_writes_and_resumes_an_entry(tmp_path, capsys):
+def test_the_command_writes_and_resumes_an_entry(tmp_path, capsys, monkeypatch, lib):
+    monkeypatch.setattr(H, "library", lambda: lib)            # no build in the repository's build/
     out = tmp_path / "md.json"
     args = ["--n", "27", "--t-end", "200", "--t-eq", "5", "--max-lag", "40", "--ref-chains", "40", "--out", str(out)]
     H.main(args + ["--runs", "3"])
@@ -145,6 +199,7 @@ def test_the_command_writes_and_resumes_an_entry(tmp_path, capsys):
     seeds = [r["seed"] for r in e["per_run"]]
     assert e["n_runs"] == 5 and len(set(seeds)) == 5 and seeds[:3] == [r["seed"] for r in first[0]["per_run"]]
     assert e["d_boltzmann"] == first[0]["d_boltzmann"]
+    assert [b["runs"] for b in e["batches"]] == [3, 5] and e["versions"]["engine_sha256"]
     for key in ("d_gk_rel_boltzmann", "d_exact_rel_enskog", "rate_rel_enskog", "d_gk_rel_boltzmann_se"):
         assert math.isfinite(e[key])
     assert e["d_gk_rel_enskog"] == pytest.approx((1 + e["d_gk_rel_boltzmann"]) * e["enskog_chi"] - 1, rel=1e-12)
