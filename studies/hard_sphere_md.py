@@ -171,11 +171,6 @@ def one_run(seed, n=N, box=BOX, sigma=SIGMA, kT=KT, m=MASS, t_end=1000.0, t_eq=5
                 kT=float(0.5 * m * np.sum(vel[0] ** 2) / (1.5 * n)))
 
 
-def _mean_se(x):
-    x = np.asarray(x, dtype=float)
-    return float(x.mean()), float(x.std(ddof=1) / math.sqrt(x.size))
-
-
 def _engine_hash():
     with open(SOURCE, "rb") as fh:
         return hashlib.sha256(fh.read()).hexdigest()[:16]
@@ -186,10 +181,10 @@ def _versions():
     try:
         commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
                                 text=True).stdout.strip()
-    except OSError:
-        commit = ""
-    dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--", "studies"], capture_output=True,
-                           text=True).stdout.strip() != ""
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--", "studies"], capture_output=True,
+                               text=True).stdout.strip() != ""
+    except OSError:                    # no git: the engine's hash still identifies the code that ran
+        commit, dirty = "", None
     return dict(python=platform.python_version(), numpy=np.__version__, compiler=cc[0] if cc else "", commit=commit,
                 studies_dirty=dirty, engine_sha256=_engine_hash())
 
@@ -204,9 +199,8 @@ def summarise(entry):
     runs = entry["per_run"]
     d_ref, se_ref, chi = entry["d_boltzmann"], entry["d_boltzmann_se"], entry["enskog_chi"]
     for key in ("d_gk", "d_exact", "rate"):
-        m_, s_ = _mean_se([x[key] for x in runs])
-        entry[key], entry[key + "_se"] = m_, s_
-        entry[key + "_sd_per_run"] = float(np.std([x[key] for x in runs], ddof=1))
+        entry[key], _, _, entry[key + "_se"], n_ = E.t_interval([x[key] for x in runs])
+        entry[key + "_sd_per_run"] = entry[key + "_se"] * math.sqrt(n_)
     for key in ("d_gk", "d_exact"):
         se = math.hypot(entry[key + "_se"] / d_ref, entry[key] * se_ref / d_ref ** 2)
         entry[key + "_rel_boltzmann"] = entry[key] / d_ref - 1.0
@@ -301,8 +295,9 @@ def main(argv=None):
                   f"D (GK) {entry.get('d_gk', math.nan):.5f} +- {entry.get('d_gk_se', math.nan):.5f} m^2/s", flush=True)
     if len(entry["per_run"]) < 2:
         ap.exit(1, "hard_sphere_md: fewer than 2 runs, no summary\n")
-    summarise(entry)
-    _write(entry, a.out)
+    if not todo:                       # nothing run: the stored runs summarised again (the loop wrote the rest)
+        summarise(entry)
+        _write(entry, a.out)
     e = entry
     print(f"[hsmd] N = {a.n}, rho sigma^3 = {e['rho_sigma3']:.5f} (phi = {phi:.5f}), {e['n_runs']} runs of "
           f"{a.t_end:g} s ({e['md_cpu_s']:.0f} CPU-s); Boltzmann D {e['d_boltzmann']:.5f} +- {e['d_boltzmann_se']:.5f} m^2/s")
