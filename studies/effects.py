@@ -25,7 +25,7 @@ import math
 import os
 from typing import NamedTuple
 
-from . import design, engine
+from . import design
 from . import shapes as shp
 from . import spec as S
 
@@ -86,7 +86,7 @@ def collect(specs, records=None):
         raise ValueError(f"collect: {len(records)} record sets for {len(specs)} specs")
     by, facts, pooled, studies = {}, {}, set(), {}
     for i, sp in enumerate(specs):
-        rdir = engine.results_dir(sp)
+        rdir = S.results_dir(sp)
         if records is not None:
             recs = records[i]
         elif os.path.isdir(rdir):

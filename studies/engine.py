@@ -30,9 +30,7 @@ MANIFEST_FIELDS = ("key", "name", "group", "shape", "case", "protocol", "seed", 
                    "record", "yade_version", "rot_algorithm", "energy_drift", "steps_per_s", "wall_s", "updated")
 
 
-def results_dir(spec):
-    d = spec["study"]["results"]
-    return d if os.path.isabs(d) else os.path.join(S.ROOT, d)
+results_dir = S.results_dir          # kept here for callers of engine
 
 
 def read_manifest(rdir):

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from . import design, effects, effects_plots, engine, hard_sphere_md, rates, sphere_gas
+from . import design, effects, effects_plots, hard_sphere_md, rates, sphere_gas
 from . import shapes as shp
 from . import spec as S
 from .estimators import MIN_PAIRS
@@ -102,7 +102,7 @@ def planned(specs):
     every section of the report."""
     out = []
     for sp in specs:
-        rdir = engine.results_dir(sp)
+        rdir = S.results_dir(sp)
         recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
         status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
         out.append(Planned(sp, recs, status))
@@ -269,7 +269,7 @@ def same_spin_pairs(sp, settle_s=200.0, recs=None):
     ``settle_s`` (the thermal speed squared the gas relaxed to).  {case: [(seed, D ratio, r)]}.
     ``recs``: the spec's records, if already read."""
     if recs is None:
-        rdir = engine.results_dir(sp)
+        rdir = S.results_dir(sp)
         if not os.path.isdir(rdir):
             return {}
         recs = design.load_records(sp, rdir)

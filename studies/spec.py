@@ -157,6 +157,12 @@ def _table(where, d, keys):
     return out
 
 
+def results_dir(spec):
+    """Absolute path of a loaded spec's results directory (``study.results``, relative to the repository)."""
+    d = spec["study"]["results"]
+    return d if os.path.isabs(d) else os.path.join(ROOT, d)
+
+
 def load(path):
     """Read and validate a spec file; returns the validated spec dict (with ``path``)."""
     try:

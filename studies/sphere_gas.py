@@ -41,7 +41,7 @@ import sys
 import numpy as np
 from scipy import stats
 
-from . import design, engine, kinetic
+from . import design, kinetic
 from . import spec as S
 from .estimators import fieller_from_means, t_interval
 
@@ -66,7 +66,7 @@ def gases_from_records(specs):
     """One entry per sphere gas found in the specs' finished, passing records."""
     groups = {}
     for sp in specs:
-        rdir = engine.results_dir(sp)
+        rdir = S.results_dir(sp)
         if not os.path.isdir(rdir):
             continue
         for rec in design.load_records(sp, rdir).values():
@@ -186,7 +186,7 @@ def main(argv=None):
             specs = [S.load(p) for p in a.spec]
         except (OSError, S.SpecError) as e:
             ap.exit(2, f"sphere_gas: {e}\n")
-        out = a.out or os.path.join(engine.results_dir(specs[0]), "sphere_gas.csv")
+        out = a.out or os.path.join(S.results_dir(specs[0]), "sphere_gas.csv")
         rs = rows(specs, log=log, first_version=False)
         if not rs:
             ap.exit(1, f"sphere_gas: no finished sphere runs in {', '.join(a.spec)}: nothing written\n")

@@ -177,6 +177,7 @@ def test_deflection_against_yade_binary_collision():
     betas = [0.0, 0.3, 0.6, 0.9, 0.97]
     # 0.3 m closing at 1.5 m/s: 0.2 s to contact, contact ~0.05 s
     gout_all, _ = _yade_collisions(g, betas, t_run=0.6)
+    assert len(gout_all) == len(betas)
     for gout, beta in zip(gout_all, betas):
         chi_yade = math.acos(np.clip(gout[0] / np.linalg.norm(gout), -1, 1))
         chi = K.deflection_angle(beta * SIGMA, g, SIGMA, MU, KN)[()]

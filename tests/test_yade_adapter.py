@@ -217,6 +217,7 @@ def test_append_clumps_batch_equals_single(scene):
     rng = np.random.default_rng(11)
     geo = [random_clump(rng, n, origin=(k, 0, 0)) for k, n in enumerate([2, 3, 7])]
     ret = cy.append_clumps([make_spheres(c, r) for c, r in geo])
+    assert len(ret) == len(geo)
     for (cid, _), (c, r) in zip(ret, geo):
         assert_state_matches(O.bodies[cid].state, clumpprops.mass_properties(c, r, PAPER_RHO))
 

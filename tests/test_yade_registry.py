@@ -316,7 +316,9 @@ def test_density_spread_within_tolerance_is_not_a_library_error(scene, n_clumps,
         lists.append([utils.sphere(tuple(x), float(rr), material=FrictMat(density=float(d), young=1e7, poisson=0.4))
                       for x, rr, d in zip(c.tolist(), r, rho)])
         geo.append((c, r, rho[0]))
-    for (cid, _), (c, r, rho0) in zip(cy.append_clumps(lists, method=method), geo):
+    ret = cy.append_clumps(lists, method=method)
+    assert len(ret) == n_clumps
+    for (cid, _), (c, r, rho0) in zip(ret, geo):
         assert_state_matches(O.bodies[cid].state, clumpprops.mass_properties(c, r, rho0, method=method))
 
 
