@@ -387,6 +387,45 @@ def test_hard_sphere_md_section_reads_its_file_and_judges_by_the_standard_error(
     assert lines == []
 
 
+def _vacf_shape(rise, rise_se, shift=0.0010, shift_se=0.0003, n=864, rel_record=True):
+    rec = dict(rel_exact=-0.0019, rel_exact_se=0.0006, rel_record=0.0, rel_record_se=0.0, sd_per_run=0.0097)
+    late = dict(rel_exact=0.0001, rel_exact_se=0.0006, rel_record=shift, rel_record_se=shift_se, sd_per_run=0.0110)
+    if not rel_record:
+        for d in (rec, late):
+            del d["rel_record"], d["rel_record_se"]
+    return dict(runs=200, n=n, local_decay_time=[13.98, 14.1, 14.39, 14.5], local_decay_time_se=[0.01, 0.02, 0.05, 0.1],
+                rise_2_3_over_0_05=rise, rise_se=rise_se,
+                variants={report.RECORD_VARIANT: rec, report.LATE_VARIANT: late})
+
+
+def _md_text(vacf_shape):
+    lines = []
+    report.hard_sphere_md_section(lines, [_md_entry(864, 0.0006, 0.0009)], vacf_shape=vacf_shape)
+    return "\n".join(lines)                           # the entry's estimator bias: -0.200 % +- 0.070 %
+
+
+def test_hard_sphere_md_section_states_the_measured_cause_only_when_resolved():
+    text = _md_text(_vacf_shape(0.029, 0.003, shift=0.0020, shift_se=0.0003))     # the shift matches the bias
+    assert "the cause, measured (`benchmarks/vacf_shape_md.py`, 200 runs of 864)" in text
+    assert "13.98 ± 0.01 s on 0-0.5 tau to 14.39 ± 0.05 s on 2-3 tau (+2.90 % ± 0.30 %)" in text
+    assert "the estimator reads -0.190 % ± 0.060 % from the exact integral" in text
+    assert "(2-4 tau) reads +0.200 % ± 0.030 % above the estimator (paired), at a per-run sd of 1.10 % instead of 0.97 %" in text
+    assert "not proven" not in text and "short of" not in text
+    # a resolved shift of a fifth of the bias (+0.04 % +- 0.01 % against -0.20 % +- 0.07 %): a contributor
+    text = _md_text(_vacf_shape(0.029, 0.003, shift=0.0004, shift_se=0.0001))
+    assert "a contributor, measured (`benchmarks" in text and "short of the whole bias" in text
+    assert "the cause, measured" not in text
+    # an older file without the paired shift: the rise and the estimator's reading only, a contributor
+    text = _md_text(_vacf_shape(0.029, 0.003, rel_record=False))
+    assert "a contributor, measured" in text and "from the exact integral" in text and "2-4 tau) reads" not in text
+    # not resolved (2.9 standard errors, a falling time, no error, NaN), another N, or no file: still a guess
+    for weak in (_vacf_shape(0.0087, 0.003), _vacf_shape(-0.029, 0.003), _vacf_shape(0.029, 0.0),
+                 _vacf_shape(0.029, float("nan")), _vacf_shape(float("nan"), 0.003), _vacf_shape(0.029, 0.003, n=108),
+                 None):
+        text = _md_text(weak)
+        assert "the likely cause, not proven" in text and "measured (`benchmarks" not in text
+
+
 def test_committed_hard_sphere_md_collides_at_enskogs_rate():
     """The committed event-driven runs of the study's gas (N = 864): the collision rate of hard
     spheres is Enskog's exactly (chi the true contact value; Carnahan-Starling's is exact to
