@@ -74,14 +74,6 @@ def jackknife(values_fn, data):
     return full, se
 
 
-def ratio_of_means(a, b):
-    """r - 1 = mean(a)/mean(b) - 1 and its paired delta-method standard error,
-    r sd(a/mean(a) - b/mean(b)) / sqrt(n)."""
-    r = a.mean() / b.mean()
-    d = a / a.mean() - b / b.mean()
-    return float(r - 1.0), float(abs(r) * d.std(ddof=1) / np.sqrt(len(a)))
-
-
 def one_run(seed, lib):
     rng = np.random.default_rng(seed)
     pos0, vel0 = H.initial_state(rng, H.N, H.BOX, H.SIGMA, H.KT, H.MASS)
@@ -126,14 +118,14 @@ def main(argv=None):
             for name, (ct, fw) in VARIANTS.items()}
     d_rec = d_of[RECORD]
     for name, d in d_of.items():
-        m, se = ratio_of_means(d, X)
-        mr, ser = ratio_of_means(d, d_rec)
+        m, se = E.ratio_of_means(d, X)
+        mr, ser = E.ratio_of_means(d, d_rec)
         sd = float(d.std(ddof=1) / d.mean())
         res[name] = dict(rel_exact=m, rel_exact_se=se, rel_record=mr, rel_record_se=ser, sd_per_run=sd)
         print(f"  {name:52s} {100 * m:+.3f} % +- {100 * se:.3f} % | {100 * mr:+.3f} % +- {100 * ser:.3f} % | "
               f"sd per run {100 * sd:.2f} %")
     plain = np.array([(np.sum(c) - 0.5 * (c[0] + c[-1])) * H.FRAME_DT / 3.0 for c in V])
-    pm, pse = ratio_of_means(plain, X)
+    pm, pse = E.ratio_of_means(plain, X)
     print(f"  plain trapezoid to 150 s (the quadrature check)            {100 * pm:+.3f} % +- {100 * pse:.3f} %")
     out = dict(about=__doc__.split("\n")[0], runs=a.runs, seed=a.seed, n=H.N, t_eq=T_EQ, t_end=T_END, max_lag=MAX_LAG,
                frame_dt=H.FRAME_DT, tau_hat=tau, windows_tau=[list(w) for w in WINDOWS],

@@ -46,7 +46,7 @@ from scipy import optimize, stats
 __all__ = [
     "group_labels", "vacf_fft", "vacf_bruteforce", "msd_fft_groups", "correlation_time", "diffusion_green_kubo",
     "green_kubo_jackknife", "green_kubo_stderr", "green_kubo_interval", "ols_msd",
-    "ols_msd_stderr", "t_interval", "fieller_ratio", "fieller_from_means", "simulate_ou", "detect_equilibration",
+    "ols_msd_stderr", "t_interval", "ratio_of_means", "fieller_ratio", "fieller_from_means", "simulate_ou", "detect_equilibration",
     "equipartition_angular_velocities", "sequential_status", "next_batch",
     "GK_C_TRUNC", "GK_FIT_WINDOW",
 ]
@@ -387,6 +387,21 @@ def ols_msd_stderr(lag, msd_groups, lo, hi, weights=None, dim=3):
 # ---------------------------------------------------------------------------------------
 # across runs
 # ---------------------------------------------------------------------------------------
+def ratio_of_means(a, b):
+    """Paired ratio of means: (mean(a)/mean(b) - 1, its delta-method standard error).
+
+    ``a``, ``b`` (n,) paired samples (run i gives a[i] and b[i]); the error is
+    r sd(a/mean(a) - b/mean(b)) / sqrt(n) with r = mean(a)/mean(b), i.e. sd(a - r b) / (sqrt(n) mean(b)).
+    Unlike the mean of per-pair ratios it carries no bias from a noisy denominator."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape or a.ndim != 1 or len(a) < 2:
+        raise ValueError("a and b must be paired 1-D samples of at least 2")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))) or b.mean() == 0:
+        raise ValueError("a and b must be finite, and mean(b) non-zero")
+    r = a.mean() / b.mean()
+    return float(r - 1.0), float(np.std(a - r * b, ddof=1) / math.sqrt(len(a)) / abs(b.mean()))
+
+
 def t_interval(x, conf=0.95):
     """(mean, low, high, stderr, n) of a sample with a Student-t interval (n-1 dof).
 

@@ -386,3 +386,23 @@ def test_initial_decay_time_exact_on_an_exponential_and_unbiased_on_ou_walkers()
     assert 0.002 < est.std(ddof=1) / 37.6 < 0.02
     with pytest.raises(ValueError, match="fewer than 2 lags"):
         E.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6), t_fit=0.2)
+
+
+def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
+    """The delta-method error of mean(a)/mean(b) - 1 against the jackknife of the same ratio (an
+    independent route), on paired samples whose common noise cancels; bad input raises."""
+    rng = np.random.default_rng(3)
+    a = rng.normal(10.0, 0.3, 200)
+    b = a * 1.02 + rng.normal(0.0, 0.05, 200)
+    m, s = E.ratio_of_means(a, b)
+    assert m == pytest.approx(a.mean() / b.mean() - 1.0, rel=1e-14)
+    n = len(a)
+    loo = np.array([(a.sum() - a[i]) / (b.sum() - b[i]) for i in range(n)])
+    s_jk = math.sqrt((n - 1) / n * np.sum((loo - loo.mean()) ** 2))
+    assert s == pytest.approx(s_jk, rel=2e-3)
+    unpaired = math.sqrt(np.var(a / a.mean(), ddof=1) + np.var(b / b.mean(), ddof=1)) / math.sqrt(n)
+    assert s < 0.2 * unpaired                          # paired: the common noise cancels
+    assert E.ratio_of_means(a, a) == (0.0, 0.0)
+    for bad in ((a, b[:-1]), (a[:1], b[:1]), (np.r_[a[:-1], np.nan], b), (a, 0.0 * b)):
+        with pytest.raises(ValueError):
+            E.ratio_of_means(*bad)
