@@ -65,8 +65,7 @@ def one_run(seed, n=N, t_end=T_END, dt=DT, max_lag=MAX_LAG):
         vel[:, b] = states[np.searchsorted(times[:, b], grid, side="right") - 1, b]
     c = E.vacf_fft(vel, int(round(max_lag / dt)))
     lag = np.arange(len(c)) * dt
-    d_int = float(np.sum(c) - 0.5 * (c[0] + c[-1])) * dt / 3
-    return E.diffusion_green_kubo(lag, c), d_int
+    return E.diffusion_green_kubo(lag, c), E.vacf_integral(lag, c)
 
 
 def main(argv=None):

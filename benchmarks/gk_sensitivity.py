@@ -32,11 +32,6 @@ VARIANTS = {  # name: (truncation in tau_hat, tail-fit window in tau_hat)
 }
 
 
-def plain_integral(lag, c):
-    """(1/3) int_0^max_lag C dt, trapezoidal: no tail."""
-    return float((np.sum(c) - 0.5 * (c[0] + c[-1])) * (lag[1] - lag[0]) / 3.0)
-
-
 def msd_slope(lag, msd, lo_tau, tau):
     """MSD / 6t slope by least squares on lags >= lo_tau * tau."""
     sel = lag >= lo_tau * tau
@@ -59,7 +54,7 @@ def run_table(paths):
         r = {"run": rec["name"], "D": base["D"], "tau": base["tau_hat"], "tail_share": base["tail"] / base["D"]}
         for name, (ct, fw) in VARIANTS.items():
             r[name] = est.diffusion_green_kubo(lag, c, c_trunc=ct, fit_window=fw)
-        r[f"plain integral to {lag[-1]:.0f} s"] = plain_integral(lag, c)
+        r[f"plain integral to {lag[-1]:.0f} s"] = est.vacf_integral(lag, c)
         r["MSD slope, lags >= 4 tau"] = msd_slope(np.asarray(w["msd_lag_s"]), np.asarray(w["msd"]), 4.0,
                                                   base["tau_hat"])
         rows.append(r)

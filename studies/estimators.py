@@ -44,7 +44,7 @@ from scipy import fft as sfft
 from scipy import optimize, stats
 
 __all__ = [
-    "group_labels", "vacf_fft", "vacf_bruteforce", "msd_fft_groups", "correlation_time", "diffusion_green_kubo",
+    "group_labels", "vacf_fft", "vacf_bruteforce", "msd_fft_groups", "correlation_time", "vacf_integral", "diffusion_green_kubo",
     "green_kubo_jackknife", "green_kubo_stderr", "green_kubo_interval", "ols_msd",
     "ols_msd_stderr", "t_interval", "ratio_of_means", "fieller_ratio", "fieller_from_means", "simulate_ou", "detect_equilibration",
     "equipartition_angular_velocities", "sequential_status", "next_batch",
@@ -267,6 +267,13 @@ def _fit_exponential(t, y, tau0):
         a, _ = amp(1.0 / k)
     tau = 1.0 / k
     return a * math.exp(t[0] / tau), tau          # amplitude at t = 0
+
+
+def vacf_integral(lag_s, vacf, dim=3):
+    """(1/dim) int_0^L C dt (m^2/s) of a VACF over all its lags (trapezoidal rule, no tail model):
+    the plain Green-Kubo integral to the largest lag L.  ``lag_s`` (L,) evenly spaced from 0 (s)."""
+    lag, c = _check_lags(lag_s, vacf)
+    return float((np.sum(c) - 0.5 * (c[0] + c[-1])) * (lag[1] - lag[0]) / dim)
 
 
 def diffusion_green_kubo(lag_s, vacf, c_trunc=GK_C_TRUNC, fit_window=GK_FIT_WINDOW, dim=3,

@@ -153,16 +153,22 @@ def exact_integral(pos, vel, frame_dt, max_lag):
     return float(np.einsum("tni,tni->", vel[:-k], disp) / (3.0 * disp.shape[0] * disp.shape[1]))
 
 
-def one_run(seed, n=N, box=BOX, sigma=SIGMA, kT=KT, m=MASS, t_end=1000.0, t_eq=50.0, max_lag=150.0, lib=None):
-    """D of one run by the study's Green-Kubo estimator and by the exact integral to ``max_lag``,
-    and the collision rate per particle [1/s]."""
+def equilibrated_run(seed, n=N, box=BOX, sigma=SIGMA, kT=KT, m=MASS, t_end=1000.0, t_eq=50.0, lib=None):
+    """One run from :func:`initial_state` drawn with ``seed``: the first ``t_eq`` s run and dropped,
+    then recorded to ``t_end`` s.  Returns (:func:`simulate`'s dict for t_eq..t_end, the collisions
+    during the dropped start)."""
     rng = np.random.default_rng(seed)
     pos0, vel0 = initial_state(rng, n, box, sigma, kT, m)
     n_frames = int(round(t_end / FRAME_DT)) + 1
     k_eq = int(round(t_eq / FRAME_DT))
     r0 = simulate(pos0, vel0, box, sigma, k_eq + 1, lib=lib)
-    coll_eq = r0["n_coll"]
-    out = simulate(r0["pos"][-1], r0["vel"][-1], box, sigma, n_frames - k_eq, lib=lib)
+    return simulate(r0["pos"][-1], r0["vel"][-1], box, sigma, n_frames - k_eq, lib=lib), r0["n_coll"]
+
+
+def one_run(seed, n=N, box=BOX, sigma=SIGMA, kT=KT, m=MASS, t_end=1000.0, t_eq=50.0, max_lag=150.0, lib=None):
+    """D of one run by the study's Green-Kubo estimator and by the exact integral to ``max_lag``,
+    and the collision rate per particle [1/s]."""
+    out, coll_eq = equilibrated_run(seed, n, box, sigma, kT, m, t_end, t_eq, lib)
     pos, vel = out["pos"], out["vel"]
     c = E.vacf_fft(vel, int(round(max_lag / FRAME_DT)))
     lag = np.arange(c.size) * FRAME_DT

@@ -406,3 +406,16 @@ def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
     for bad in ((a, b[:-1]), (a[:1], b[:1]), (np.r_[a[:-1], np.nan], b), (a, 0.0 * b)):
         with pytest.raises(ValueError):
             E.ratio_of_means(*bad)
+
+
+def test_vacf_integral_is_the_trapezoid_of_an_exponential_to_its_last_lag():
+    """(1/3) int_0^L A e^(-t/tau) dt = A tau (1 - e^(-L/tau)) / 3, to the trapezoid's dt^2/(12 tau^2)."""
+    dt, tau, a = 0.25, 14.0, 3.0
+    lag = np.arange(601) * dt
+    got = E.vacf_integral(lag, a * np.exp(-lag / tau))
+    exact = a * tau * (1 - math.exp(-lag[-1] / tau)) / 3
+    assert got == pytest.approx(exact, rel=2 * dt ** 2 / (12 * tau ** 2))
+    assert got != pytest.approx(exact, rel=1e-7)                    # the trapezoid's own error is there
+    assert E.vacf_integral(lag, a * np.exp(-lag / tau), dim=1) == pytest.approx(3 * got, rel=1e-14)
+    with pytest.raises(ValueError):
+        E.vacf_integral(lag[::-1], np.exp(-lag / tau))

@@ -1,6 +1,6 @@
 // Event-driven molecular dynamics of identical elastic hard spheres in a periodic cubic box.
 //
-// A second engine for the sphere gas (benchmarks/hard_sphere_gas.py, docs/kinetic_theory.md):
+// A second engine for the sphere gas (studies/hard_sphere_md.py, docs/kinetic_theory.md):
 // the N-body periodic gas with every correlation the Boltzmann equation leaves out (Enskog's
 // excluded volume, ring and three-body collisions, recollisions through the periodic images),
 // integrated exactly: free flight between collisions, the elastic hard-sphere collision rule
@@ -14,7 +14,7 @@
 // kept unwrapped and advanced lazily; the cell of a particle is an integer triple updated at its
 // crossings (never recomputed from a rounded position).
 //
-// C ABI for ctypes (no Python headers, no pybind11: the benchmark compiles it with g++ on first use).
+// C ABI for ctypes (no Python headers, no pybind11: studies/hard_sphere_md.py compiles it with g++ on first use).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
