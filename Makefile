@@ -57,6 +57,8 @@ asan: setup
 	  $(PY) -m pytest -q -p no:cacheprovider $(ASAN_TESTS)
 example: setup
 	$(PY) examples/paper_dimer.py
+# bench_timestep.py: with the arguments its committed JSON files record in "argv" (--workdir aside;
+# tests/test_timestep.py checks)
 bench: setup
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_core.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_massprops.py
@@ -64,4 +66,5 @@ bench: setup
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_gas.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_io.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/engine_errors.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --factors-of trimer=0.0625,0.25,0.5,1.0,1.5,2.0 --bias 400,8 --bias-factors 0.5,1.0,1.5
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes tetra --factors-of tetra=0.0625,0.25,0.5,1.0,1.5,2.0 --gas-factors 0.5,1.0,1.5 --out benchmarks/results/timestep_tetra.json

@@ -12,12 +12,17 @@
 #   scripts/sweep.sh collect SPEC [DIR]   copy DIR's finished records (never over one already here)
 #                                         and its manifest into this tree, to commit
 #   scripts/sweep.sh stop SPEC            stop this machine's sweeps of SPEC (their YADE runs die with
-#                                         them; a run in flight is lost and runs again next time)
+#                                         them; a run in flight is lost and runs again next time), and
+#                                         any queue that holds SPEC, first
+#   scripts/sweep.sh wait SPEC            return when no sweep of SPEC runs on this machine
+#   scripts/sweep.sh queue SPEC [SPEC...] in the background: start each SPEC when the one before it
+#                                         ends (met its targets or spent its budget), so
+#                                         no core idles (log: ../sweep-queue.log beside this repository)
 #
 # SPEC: a spec name (studies/specs/SPEC.toml).  DIR: default ../sweep-SPEC beside this repository.
 # WORKERS (default 1): Dask workers of the sweep, one YADE run each.
 set -euo pipefail
-usage() { sed -n '9,18p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '9,23p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 [ $# -ge 2 ] || usage
 cmd=$1
 name=$(basename "$2" .toml)
@@ -29,8 +34,12 @@ results=$(sed -n 's/^results *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n
 yade=$(sed -n 's/^yade *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n 1)
 [ -n "$results" ] || { echo "[sweep] $specfile has no study.results" >&2; exit 2; }
 
-# a driver holds an flock on its results' .driver.lock while it runs (studies.engine.sweep)
-running() { [ -f "$dir/$results/.driver.lock" ] && ! flock -n "$dir/$results/.driver.lock" true; }
+# a driver holds an flock on its results' .driver.lock while it runs (studies.engine.sweep); from
+# its launch to that lock, its command line tells
+running() {
+    { [ -f "$dir/$results/.driver.lock" ] && ! flock -n "$dir/$results/.driver.lock" true; } ||
+        pgrep -f "studies sweep $specfile" > /dev/null
+}
 
 refresh() {
     if [ ! -d "$dir/.git" ]; then
@@ -80,7 +89,35 @@ case $cmd in
         done
         [ -f "$dir/$results/manifest.csv" ] && cp -p "$dir/$results/manifest.csv" "$root/$results/manifest.csv"
         echo "[sweep] $n new records of $name in $results/runs" ;;
+    wait)
+        while running; do sleep "${SWEEP_POLL:-30}"; done ;;
+    queue)
+        shift
+        for s in "$@"; do
+            [ -f "$root/studies/specs/$(basename "$s" .toml).toml" ] ||
+                { echo "[sweep] no spec studies/specs/$(basename "$s" .toml).toml" >&2; exit 2; }
+        done
+        log=$(cd "$root/.." && pwd)/sweep-queue.log
+        nohup setsid bash "$0" _queue "$@" >> "$log" 2>&1 < /dev/null &
+        echo "[sweep] queued $* (each starts when the one before it ends; log: $log; stop SPEC ends the queue too)" ;;
+    _queue)                                     # the queue itself, in its own session (see stop)
+        shift
+        for s in "$@"; do
+            s=$(basename "$s" .toml)
+            echo "[queue] $(date -u '+%F %T') UTC: $s"
+            bash "$0" start "$s" || echo "[queue] $s did not start (above); waiting for any sweep of it"
+            bash "$0" wait "$s"
+        done
+        echo "[queue] $(date -u '+%F %T') UTC: done" ;;
     stop)
+        # first any queue holding SPEC (its whole process group: it would start the next spec)
+        for pid in $(pgrep -f "sweep\.sh _queue" || true); do
+            q=$(tr '\0' '\n' < "/proc/$pid/cmdline" 2>/dev/null | sed '1,/^_queue$/d' || true)
+            if grep -qxE "$name(\.toml)?" <<< "$q"; then
+                kill -- "-$pid" 2>/dev/null || kill "$pid" 2>/dev/null || true
+                echo "[sweep] ended the queue of" $q
+            fi
+        done
         pkill -f "studies sweep $specfile" && echo "[sweep] stopped $name" || echo "[sweep] no sweep of $name running" ;;
     *) usage ;;
 esac

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import fcntl
 import json
+import os
 import shutil
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -88,3 +90,55 @@ def test_bad_use_is_refused():
     assert p.returncode == 2 and "no spec studies/specs/no_such_spec.toml" in p.stderr
     p = _sweep(ROOT, "start")
     assert p.returncode == 2 and "refresh SPEC [DIR]" in p.stderr
+
+
+def _spec(repo, name):
+    """A spec of a name no real sweep has (stop and the queue look at every process on the machine)."""
+    (repo / "studies" / "specs" / f"{name}.toml").write_text(f'[study]\nname = "{name}"\nresults = "results/{name}"\n')
+    _git(repo, "add", "-A")
+    _git(repo, "commit", "-qm", f"spec {name}")
+
+
+def _until(cond, what, timeout=30.0):
+    t0 = time.monotonic()
+    while not cond():
+        assert time.monotonic() - t0 < timeout, f"timed out waiting for {what}"
+        time.sleep(0.1)
+
+
+def test_queue_starts_each_spec_after_the_one_before_and_stop_ends_it(repo, tmp_path, monkeypatch):
+    a, b = f"qa{os.getpid()}", f"qb{os.getpid()}"
+    for n in (a, b):
+        _spec(repo, n)
+        assert _sweep(repo, "refresh", n).returncode == 0                  # default DIR: ../sweep-NAME
+    log = tmp_path / "sweep-queue.log"
+    monkeypatch.setenv("SWEEP_POLL", "0.1")
+    locks = {}
+    for n in (a, b):                                                      # both "running"
+        locks[n] = open(tmp_path / f"sweep-{n}" / "results" / n / ".driver.lock", "w")
+        fcntl.flock(locks[n], fcntl.LOCK_EX | fcntl.LOCK_NB)
+    alive = lambda: subprocess.run(["pgrep", "-f", f"_queue {a} {b}"], capture_output=True).returncode == 0
+
+    p = _sweep(repo, "queue", a, b)
+    assert p.returncode == 0 and f"queued {a} {b}" in p.stdout, p.stdout + p.stderr
+    _until(lambda: log.exists() and f"{a} did not start" in log.read_text(), "the queue to reach a")
+    time.sleep(0.5)
+    assert f"UTC: {b}" not in log.read_text() and alive()                # a still runs: b waits
+    locks.pop(a).close()                                                  # a ends
+    _until(lambda: f"{b} did not start" in log.read_text(), "the queue to move on to b")
+    assert alive()
+    p = _sweep(repo, "stop", b)                                           # ends the queue, first
+    assert f"ended the queue of {a} {b}" in p.stdout, p.stdout + p.stderr
+    _until(lambda: not alive(), "the queue to end")
+    locks.pop(b).close()
+    time.sleep(0.3)
+    assert "done" not in log.read_text()
+
+    # a queue whose specs all end runs to its end; wait returns at once when nothing runs
+    with open(tmp_path / f"sweep-{a}" / "results" / a / ".driver.lock", "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert _sweep(repo, "queue", a).returncode == 0
+        _until(lambda: log.read_text().count(f"{a} did not start") == 2, "the second queue")
+    _until(lambda: log.read_text().rstrip().endswith("done"), "the queue to finish")
+    assert _sweep(repo, "wait", b).returncode == 0
+    assert _sweep(repo, "queue", a, "no_such_spec").returncode == 2      # every spec checked first

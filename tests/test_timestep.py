@@ -135,3 +135,20 @@ def test_run_map_never_reuses_another_inputs_output(tmp_path):
     with pytest.raises(RuntimeError, match="no YADE"):
         bt.run_map(inp, 0.5, "1999.1", str(tmp_path), "x")
     assert not (tmp_path / "x-f0.5.out.json").exists()
+
+
+def test_make_bench_reruns_the_committed_timestep_results_with_their_arguments():
+    """`make bench` rewrites benchmarks/results/timestep*.json: it must run bench_timestep.py with
+    the arguments those files record (their scratch --workdir aside), not with other defaults."""
+    import shlex
+    root = ROOT
+    assert Path(bt.OUT).resolve() == root / "benchmarks" / "results" / "timestep.json"   # no --out
+    lines = [ln for ln in (root / "Makefile").read_text().splitlines()
+             if ln.startswith("\t") and "benchmarks/bench_timestep.py" in ln]
+    made = [shlex.split(ln.split("benchmarks/bench_timestep.py", 1)[1]) for ln in lines]
+    for name in ("timestep.json", "timestep_tetra.json"):
+        argv = json.loads((root / "benchmarks" / "results" / name).read_text())["argv"]
+        i = argv.index("--workdir")
+        want = argv[:i] + argv[i + 2:]
+        assert want in made, (name, want, made)
+    assert len(made) == 2
