@@ -26,13 +26,13 @@ import argparse
 import csv
 import io
 import json
-import math
 import sys
 from typing import Optional, Sequence
 
 import numpy as np
 
 from . import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__, mass_properties
+from ._argtypes import _int, _positive_float, _positive_int
 from .textclumps import TextClump, TextClumpsError, read_text_clumps
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, YADE's default material density
@@ -43,33 +43,6 @@ MAX_WARNINGS = 5  # repeated-id warnings printed before a count
 
 class CLIError(Exception):
     """A user-facing error: printed as one line, exit status 1."""
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text!r}")
-    return v
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return v
-
-
-def _int(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -31,7 +31,7 @@ import json
 import numpy as np
 
 from . import estimators as est
-from . import runner
+from . import reduce as red
 from . import spec as S
 
 ESTIMATOR = "green_kubo"
@@ -111,8 +111,8 @@ def load_records(spec, rdir):
     seeds the sequential design added included."""
     out = {}
     for run in S.runs(spec, extra_seeds=possible_extra_seeds(spec)):
-        path = runner.record_path(rdir, run)
-        if runner.is_complete(path, run["key"]):
+        path = red.record_path(rdir, run)
+        if red.is_complete(path, run["key"]):
             with open(path) as f:
                 out[run["key"]] = json.load(f)
     return out

@@ -9,6 +9,9 @@ grid up to ``max_lag``, overall and for 8 disjoint particle groups (contiguous i
 """
 from __future__ import annotations
 
+import json
+import os
+
 import numpy as np
 
 from .estimators import vacf_fft
@@ -97,3 +100,18 @@ def reduce_run(frames, run_input, cuts, max_lag_s, energy_tol, momentum_tol):
         if np.sum(_even_frames(t) & (t >= c - 1e-9)) >= 4:        # shorter windows are not stored
             out["windows"].append(window(fr, c, max_lag_s))
     return out
+
+
+def is_complete(path, key):
+    """True if ``path`` is a finished reduced record of run ``key``."""
+    try:
+        with open(path) as f:
+            rec = json.load(f)
+    except (OSError, ValueError):
+        return False
+    return rec.get("key") == key and rec.get("reduction_version") == REDUCTION_VERSION
+
+
+def record_path(results_dir, run):
+    """Where run ``run``'s reduced record lives under a study's results directory."""
+    return os.path.join(results_dir, "runs", run["name"] + ".json")

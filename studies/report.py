@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from . import design, effects, effects_plots, hard_sphere_md, rates, sphere_gas
+from . import design, effects, effects_plots, rates, sphere_gas
 from . import shapes as shp
 from . import spec as S
 from .estimators import MIN_PAIRS
@@ -735,6 +735,14 @@ def _vacf_shape_cause(v, e):
     return out + "; paired ratios, which carry almost none of the bias, keep the estimator of record"
 
 
+def _read_json(path):
+    """The JSON document at ``path``, or None if there is none (a section then says so)."""
+    if not os.path.exists(path):
+        return None
+    with open(path) as fh:
+        return json.load(fh)
+
+
 def hard_sphere_md_section(lines, entries, sph=(), vacf_shape=None):
     """What the event-driven hard-sphere gas (``results/hard_sphere_md.json``) says about the theory
     columns' density correction and about the study's estimator on a real gas's VACF, one row per
@@ -821,12 +829,9 @@ def build():
     rates_section(lines, rates.rows(collected, maps))
     rate_ratio_section(lines, rates.ratio_rows(collected, maps))
     sphere_gas_section(lines, sph)
-    shape_path = os.path.join(S.ROOT, "benchmarks", "results", "vacf_shape_md.json")
-    vacf_shape = None
-    if os.path.exists(shape_path):
-        with open(shape_path) as fh:
-            vacf_shape = json.load(fh)
-    hard_sphere_md_section(lines, hard_sphere_md.read(os.path.join(RESULTS, "hard_sphere_md.json")), sph, vacf_shape)
+    vacf_shape = _read_json(os.path.join(S.ROOT, "benchmarks", "results", "vacf_shape_md.json"))
+    hsmd = _read_json(os.path.join(RESULTS, "hard_sphere_md.json"))        # written by studies.hard_sphere_md
+    hard_sphere_md_section(lines, hsmd["gases"] if hsmd else [], sph, vacf_shape)
     if figs:
         lines += ["## Figures (drawn from `effects.csv` and `sphere_gas.csv`)", ""]
         lines += [f"![{f}]({f})" for f in figs] + [""]

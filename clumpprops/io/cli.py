@@ -15,7 +15,7 @@ import sys
 from typing import Optional, Sequence
 
 from .. import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__
-from ..cli import _positive_float
+from .._argtypes import _positive_float
 from . import ENGINES, FORMATS, ClumpFileError, compute, export, read
 
 PROG = "clumpprops export"

@@ -1,0 +1,117 @@
+"""The layers of the project, read from the source (every import statement, lazy ones in functions
+included; nothing is imported here):
+
+* no import cycles among the modules of ``clumpprops`` and ``studies``;
+* the geometry math knows nothing of engines (no ``clumpprops.yade``, ``clumpprops.io``, YADE);
+* ``clumpprops`` knows nothing of the studies, and the YADE script nothing of the driver;
+* the reports and plots read results files: nothing they import, directly or through other
+  modules, runs a simulation (``studies.runner``, ``studies.engine``, ``studies.hard_sphere_md``,
+  Dask, YADE).
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("clumpprops", "studies")
+
+
+def _modules():
+    out = {}
+    for pkg in PACKAGES:
+        for f in sorted((ROOT / pkg).rglob("*.py")):
+            parts = f.relative_to(ROOT).with_suffix("").parts
+            out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = f
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(name, path):
+    """(project modules, top-level names of other modules) that module ``name`` imports."""
+    pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    ours, other = set(), set()
+
+    def add(mod):
+        if mod in MODULES:
+            ours.add(mod)
+        elif mod.split(".")[0] in PACKAGES:
+            ours.add(mod.rpartition(".")[0] if mod.rpartition(".")[0] in MODULES else mod)
+        else:
+            other.add(mod.split(".")[0])
+
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                add(a.name)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = ".".join(pkg.split(".")[:len(pkg.split(".")) - node.level + 1])
+                mod = f"{base}.{node.module}" if node.module else base
+            else:
+                mod = node.module
+            for a in node.names:
+                add(f"{mod}.{a.name}" if f"{mod}.{a.name}" in MODULES else mod)
+    return ours, other
+
+
+GRAPH = {m: _imports(m, p) for m, p in MODULES.items()}
+
+
+def _closure(mod):
+    seen, todo = set(), [mod]
+    while todo:
+        m = todo.pop()
+        for d in GRAPH[m][0]:
+            if d not in seen:
+                seen.add(d)
+                todo.append(d)
+    return seen
+
+
+def test_the_graph_is_read():
+    # the reader sees what is there (a reader that sees nothing would pass every rule below)
+    assert {"clumpprops.api", "clumpprops.yade", "studies.report", "studies.runner"} <= set(MODULES)
+    assert "studies.reduce" in GRAPH["studies.runner"][0] and "clumpprops.core" in GRAPH["clumpprops.yade"][0]
+    assert "clumpprops.io.cli" in GRAPH["clumpprops.cli"][0]                 # a lazy import, in main()
+    assert "distributed" in set().union(*(GRAPH[m][1] for m in _closure("studies.__main__")))
+
+
+def test_no_import_cycles():
+    cycles = [m for m in MODULES if m in _closure(m)]
+    assert not cycles, f"modules on an import cycle: {cycles}"
+
+
+def test_the_geometry_knows_nothing_of_engines_or_studies():
+    engines = {m for m in MODULES if m == "clumpprops.yade" or m.startswith("clumpprops.io")}
+    geometry = {m for m in MODULES if m.startswith("clumpprops")} - engines - {"clumpprops.cli", "clumpprops.__main__"}
+    assert "clumpprops.api" in geometry and "clumpprops.pairwise" in geometry
+    for m in sorted(geometry):
+        reach = _closure(m)
+        assert not reach & engines, (m, reach & engines)
+        assert "yade" not in set().union(GRAPH[m][1], *(GRAPH[d][1] for d in reach)), m
+    for m in (m for m in MODULES if m.startswith("clumpprops")):
+        assert not any(d.startswith("studies") for d in _closure(m)), m
+
+
+def test_the_yade_script_knows_nothing_of_the_driver():
+    src = (ROOT / "yade_scripts" / "granular_gas.py").read_text()
+    tops = set()
+    for node in ast.walk(ast.parse(src)):
+        if isinstance(node, ast.Import):
+            tops |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            tops.add(node.module.split(".")[0])
+    assert {"yade", "numpy", "clumpprops"} <= tops
+    assert not tops & {"studies", "dask", "distributed"}, tops
+
+
+def test_reports_and_plots_never_run_a_simulation():
+    for m in ("studies.report", "studies.gas_report", "studies.gas_plots", "studies.effects_plots"):
+        reach = _closure(m)
+        runs = {"studies.runner", "studies.engine", "studies.hard_sphere_md"}
+        assert not reach & runs, (m, reach & runs)
+        ext = set().union(GRAPH[m][1], *(GRAPH[d][1] for d in reach))
+        assert not ext & {"yade", "dask", "distributed", "subprocess"}, (m, ext)
