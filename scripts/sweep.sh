@@ -14,7 +14,7 @@
 #   scripts/sweep.sh stop SPEC            stop this machine's sweeps of SPEC (their YADE runs die with
 #                                         them; a run in flight is lost and runs again next time), and
 #                                         any queue that holds SPEC, first
-#   scripts/sweep.sh wait SPEC            return when no sweep of SPEC runs on this machine
+#   scripts/sweep.sh wait SPEC [DIR]      return when no sweep of SPEC runs in DIR
 #   scripts/sweep.sh queue SPEC [SPEC...] in the background: start each SPEC when the one before it
 #                                         ends (met its targets or spent its budget), so
 #                                         no core idles (log: ../sweep-queue.log beside this repository)
@@ -34,12 +34,8 @@ results=$(sed -n 's/^results *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n
 yade=$(sed -n 's/^yade *= *"\([^"]*\)".*/\1/p' "$root/$specfile" | head -n 1)
 [ -n "$results" ] || { echo "[sweep] $specfile has no study.results" >&2; exit 2; }
 
-# a driver holds an flock on its results' .driver.lock while it runs (studies.engine.sweep); from
-# its launch to that lock, its command line tells
-running() {
-    { [ -f "$dir/$results/.driver.lock" ] && ! flock -n "$dir/$results/.driver.lock" true; } ||
-        pgrep -f "studies sweep $specfile" > /dev/null
-}
+# a driver holds an flock on its results' .driver.lock while it runs (studies.engine.sweep)
+running() { [ -f "$dir/$results/.driver.lock" ] && ! flock -n "$dir/$results/.driver.lock" true; }
 
 refresh() {
     if [ ! -d "$dir/.git" ]; then
@@ -47,6 +43,8 @@ refresh() {
         echo "[sweep] cloned $root into $dir"
     fi
     local keep
+    # a refresh killed midway (stop during a queue's start) leaves git's lock: nothing else works here
+    rm -f "$dir/.git/index.lock"
     keep=$(mktemp -d)
     cp -p "$dir/$results/runs/"*.json "$keep/" 2>/dev/null || true
     git -C "$dir" fetch -q "$root" HEAD
@@ -77,6 +75,10 @@ case $cmd in
         cd "$dir"
         OMP_NUM_THREADS=1 nohup setsid nice -n 10 .venv/bin/python -m studies sweep "$specfile" \
             --workers "${WORKERS:-1}" --progress-every 300 > sweep.log 2>&1 < /dev/null &
+        pid=$!
+        # return once the driver holds its lock (or has ended): `wait` after `start` then never
+        # returns before the sweep has begun
+        for _ in $(seq 600); do running && break; kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
         echo "[sweep] started $name in $dir (log: $dir/sweep.log)" ;;
     collect)
         [ -d "$dir/$results/runs" ] || { echo "[sweep] no records in $dir/$results/runs" >&2; exit 1; }
@@ -97,9 +99,11 @@ case $cmd in
             [ -f "$root/studies/specs/$(basename "$s" .toml).toml" ] ||
                 { echo "[sweep] no spec studies/specs/$(basename "$s" .toml).toml" >&2; exit 2; }
         done
+        names=()
+        for s in "$@"; do names+=("$(basename "$s" .toml)"); done
         log=$(cd "$root/.." && pwd)/sweep-queue.log
-        nohup setsid bash "$0" _queue "$@" >> "$log" 2>&1 < /dev/null &
-        echo "[sweep] queued $* (each starts when the one before it ends; log: $log; stop SPEC ends the queue too)" ;;
+        nohup setsid bash "$0" _queue "${names[@]}" >> "$log" 2>&1 < /dev/null &
+        echo "[sweep] queued ${names[*]} (each starts when the one before it ends; log: $log; stop SPEC ends the queue too)" ;;
     _queue)                                     # the queue itself, in its own session (see stop)
         shift
         for s in "$@"; do
@@ -113,7 +117,7 @@ case $cmd in
         # first any queue holding SPEC (its whole process group: it would start the next spec)
         for pid in $(pgrep -f "sweep\.sh _queue" || true); do
             q=$(tr '\0' '\n' < "/proc/$pid/cmdline" 2>/dev/null | sed '1,/^_queue$/d' || true)
-            if grep -qxE "$name(\.toml)?" <<< "$q"; then
+            if grep -qxF "$name" <<< "$q"; then
                 kill -- "-$pid" 2>/dev/null || kill "$pid" 2>/dev/null || true
                 echo "[sweep] ended the queue of" $q
             fi

@@ -106,8 +106,19 @@ def _until(cond, what, timeout=30.0):
         time.sleep(0.1)
 
 
-def test_queue_starts_each_spec_after_the_one_before_and_stop_ends_it(repo, tmp_path, monkeypatch):
+@pytest.fixture
+def names():
+    """Two spec names of this test's own; any queue of them still alive at the end is ended (a
+    failed assertion must not leave one behind to start a real sweep on this machine)."""
     a, b = f"qa{os.getpid()}", f"qb{os.getpid()}"
+    yield a, b
+    for pid in subprocess.run(["pgrep", "-f", f"_queue .*q[ab]{os.getpid()}"], capture_output=True,
+                              text=True).stdout.split():
+        subprocess.run(["kill", "--", f"-{pid}"], capture_output=True)
+
+
+def test_queue_starts_each_spec_after_the_one_before_and_stop_ends_it(repo, tmp_path, monkeypatch, names):
+    a, b = names
     for n in (a, b):
         _spec(repo, n)
         assert _sweep(repo, "refresh", n).returncode == 0                  # default DIR: ../sweep-NAME
@@ -119,7 +130,7 @@ def test_queue_starts_each_spec_after_the_one_before_and_stop_ends_it(repo, tmp_
         fcntl.flock(locks[n], fcntl.LOCK_EX | fcntl.LOCK_NB)
     alive = lambda: subprocess.run(["pgrep", "-f", f"_queue {a} {b}"], capture_output=True).returncode == 0
 
-    p = _sweep(repo, "queue", a, b)
+    p = _sweep(repo, "queue", a, f"studies/specs/{b}.toml")                # a name or a spec's path
     assert p.returncode == 0 and f"queued {a} {b}" in p.stdout, p.stdout + p.stderr
     _until(lambda: log.exists() and f"{a} did not start" in log.read_text(), "the queue to reach a")
     time.sleep(0.5)
