@@ -41,7 +41,7 @@ def chi_orbit_quad(b, g, kn):
 
     # integrable 1/sqrt singularity at r0: quad's algebraic weight (r - r0)^-1/2
     inner, _ = integrate.quad(lambda r: b / (r * r * math.sqrt(slope(r))),
-                              r0, SIGMA, weight="alg", wvar=(-0.5, 0.0), epsabs=1e-13, epsrel=1e-12, limit=200)
+                              r0, SIGMA, weight="alg", wvar=(-0.5, 0.0), epsabs=1e-12, epsrel=1e-11, limit=200)
     outer = math.asin(b / SIGMA)   # int_sigma^inf b dr / (r^2 sqrt(1 - b^2/r^2))
     return math.pi - 2.0 * (inner + outer)
 
