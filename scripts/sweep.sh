@@ -95,19 +95,18 @@ case $cmd in
         while running; do sleep "${SWEEP_POLL:-30}"; done ;;
     queue)
         shift
-        for s in "$@"; do
-            [ -f "$root/studies/specs/$(basename "$s" .toml).toml" ] ||
-                { echo "[sweep] no spec studies/specs/$(basename "$s" .toml).toml" >&2; exit 2; }
-        done
         names=()
-        for s in "$@"; do names+=("$(basename "$s" .toml)"); done
+        for s in "$@"; do
+            s=$(basename "$s" .toml)
+            [ -f "$root/studies/specs/$s.toml" ] || { echo "[sweep] no spec studies/specs/$s.toml" >&2; exit 2; }
+            names+=("$s")
+        done
         log=$(cd "$root/.." && pwd)/sweep-queue.log
         nohup setsid bash "$0" _queue "${names[@]}" >> "$log" 2>&1 < /dev/null &
         echo "[sweep] queued ${names[*]} (each starts when the one before it ends; log: $log; stop SPEC ends the queue too)" ;;
     _queue)                                     # the queue itself, in its own session (see stop)
         shift
-        for s in "$@"; do
-            s=$(basename "$s" .toml)
+        for s in "$@"; do                       # spec names (queue passes them)
             echo "[queue] $(date -u '+%F %T') UTC: $s"
             bash "$0" start "$s" || echo "[queue] $s did not start (above); waiting for any sweep of it"
             bash "$0" wait "$s"

@@ -141,13 +141,12 @@ def test_make_bench_reruns_the_committed_timestep_results_with_their_arguments()
     """`make bench` rewrites benchmarks/results/timestep*.json: it must run bench_timestep.py with
     the arguments those files record (their scratch --workdir aside), not with other defaults."""
     import shlex
-    root = ROOT
-    assert Path(bt.OUT).resolve() == root / "benchmarks" / "results" / "timestep.json"   # no --out
-    lines = [ln for ln in (root / "Makefile").read_text().splitlines()
+    assert Path(bt.OUT).resolve() == ROOT / "benchmarks" / "results" / "timestep.json"   # no --out
+    lines = [ln for ln in (ROOT / "Makefile").read_text().splitlines()
              if ln.startswith("\t") and "benchmarks/bench_timestep.py" in ln]
     made = [shlex.split(ln.split("benchmarks/bench_timestep.py", 1)[1]) for ln in lines]
     for name in ("timestep.json", "timestep_tetra.json"):
-        argv = json.loads((root / "benchmarks" / "results" / name).read_text())["argv"]
+        argv = json.loads((ROOT / "benchmarks" / "results" / name).read_text())["argv"]
         i = argv.index("--workdir") if "--workdir" in argv else len(argv)   # `make bench` passes none
         want = argv[:i] + argv[i + 2:]
         assert want in made, (name, want, made)
