@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/gk_sensitivity.py                        # results/sphere_gas
     .venv/bin/python benchmarks/gk_sensitivity.py results/dimer_paired    # any study's records
+    .venv/bin/python benchmarks/gk_sensitivity.py results/shapes --pair tet-exact-paired tet-uncorrected-equal_energy
 
 Reads the reduced run records (no simulation) and recomputes D of each run from its stored
 velocity autocorrelation with other truncations and tail-fit windows, with the plain integral to
@@ -10,11 +11,20 @@ tail model at all).  Prints, per variant, the mean over runs of D_variant / D_de
 95 % Student-t interval over runs (the runs are the independent units).  A systematic offset
 between a run set and theory that moves with these choices would point at the estimator; one
 that does not, does not.
+
+``--pair A B`` compares two run sets seed by seed (A and B are run names without their ``-s<seed>-<key>``
+ending): for each variant the mean over seeds of D_B/D_A - 1 with its 95 % t-interval (the seeds are
+the independent units), as the report pairs them.  Two more rows need no tail model at all: the
+first seconds (D_init = C(0) tau_init / 3, ``estimators.initial_decay_time``) and the VACF's shape
+factor D/D_init, which is 1 for an exponential VACF; its paired ratio is the part of a Green-Kubo
+ratio that the first seconds do not see.  A variant whose truncation or fit window does not fit in a
+run's stored lags is left out for that run (the count of pairs says so).
 """
 import argparse
 import glob
 import json
 import os
+import re
 import sys
 
 import numpy as np
@@ -29,7 +39,18 @@ VARIANTS = {  # name: (truncation in tau_hat, tail-fit window in tau_hat)
     "t_c = 1.5 tau, fit 1.5-3.5 tau": (1.5, (1.5, 3.5)),
     "t_c = 2 tau, fit 2-4 tau": (2.0, (2.0, 4.0)),
     "t_c = 3 tau, fit 2-4 tau": (3.0, (2.0, 4.0)),
+    "t_c = 1 tau, fit 1-2 tau": (1.0, (1.0, 2.0)),   # fits in 100 s of lags up to tau = 50 s
 }
+FIRST_SECONDS = "first seconds, D_init = C(0) tau_init / 3"
+SHAPE_FACTOR = "shape factor D / D_init"
+
+
+def _gk(lag, c, **kw):
+    """Green-Kubo D, or NaN when the variant's window does not fit in the stored lags."""
+    try:
+        return est.diffusion_green_kubo(lag, c, **kw)
+    except ValueError:
+        return float("nan")
 
 
 def msd_slope(lag, msd, lo_tau, tau):
@@ -53,34 +74,87 @@ def run_table(paths):
         base = est.diffusion_green_kubo(lag, c, full_output=True)
         r = {"run": rec["name"], "D": base["D"], "tau": base["tau_hat"], "tail_share": base["tail"] / base["D"]}
         for name, (ct, fw) in VARIANTS.items():
-            r[name] = est.diffusion_green_kubo(lag, c, c_trunc=ct, fit_window=fw)
+            r[name] = _gk(lag, c, c_trunc=ct, fit_window=fw)
         r[f"plain integral to {lag[-1]:.0f} s"] = est.vacf_integral(lag, c)
         r["MSD slope, lags >= 4 tau"] = msd_slope(np.asarray(w["msd_lag_s"]), np.asarray(w["msd"]), 4.0,
                                                   base["tau_hat"])
+        r[FIRST_SECONDS] = float(c[0]) * est.initial_decay_time(lag, c) / 3.0
+        r[SHAPE_FACTOR] = base["D"] / r[FIRST_SECONDS]
         rows.append(r)
     return rows
+
+
+RUN_NAME = re.compile(r"^(?P<label>.+)-s(?P<seed>\d+)-[0-9a-f]{8}$")
+
+
+def label_seed(name):
+    """(label, seed) of a run name ``<shape>-<case>-<protocol>-s<seed>-<key[:8]>``."""
+    m = RUN_NAME.match(name)
+    if m is None:
+        raise ValueError(f"run name {name!r} is not <label>-s<seed>-<key>")
+    return m["label"], int(m["seed"])
+
+
+def paired(rows, a, b):
+    """Per variant, D_B/D_A - 1 over the seeds both run sets have: {name: (mean, lo, hi, n)}.
+
+    ``rows`` from :func:`run_table`; ``a``, ``b`` run labels.  The 'D' row is the estimator of record.
+    """
+    by = {}
+    for r in rows:
+        lab, seed = label_seed(r["run"])
+        by.setdefault(lab, {})[seed] = r
+    for lab in (a, b):
+        if lab not in by:
+            raise SystemExit(f"no finished run labelled {lab!r}; labels here: {', '.join(sorted(by))}")
+    seeds = sorted(set(by[a]) & set(by[b]))
+    if len(seeds) < 2:
+        raise SystemExit(f"{a} and {b} share {len(seeds)} seed(s); need at least 2 pairs")
+    out = {}
+    for name in [k for k in rows[0] if k not in ("run", "tau", "tail_share")]:
+        rel = np.array([by[b][s][name] / by[a][s][name] - 1.0 for s in seeds])
+        rel = rel[np.isfinite(rel)]
+        out[name] = est.t_interval(rel)[:3] + (len(rel),) if len(rel) >= 2 else (np.nan, np.nan, np.nan, len(rel))
+    return out
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results", nargs="?", default=os.path.join(ROOT, "results", "sphere_gas"))
     ap.add_argument("--case", default=None, help="only runs of this case (e.g. exact)")
+    ap.add_argument("--pair", nargs=2, metavar=("A", "B"), default=None,
+                    help="compare run sets A and B seed by seed (run names without -s<seed>-<key>), "
+                         "e.g. tet-exact-paired tet-uncorrected-equal_energy")
     a = ap.parse_args()
     paths = sorted(glob.glob(os.path.join(a.results, "runs", "*.json")))
     if a.case:
         paths = [p for p in paths if f"-{a.case}-" in os.path.basename(p)]
     rows = run_table(paths)
+    if a.pair:
+        res = paired(rows, *a.pair)
+        print(f"{a.pair[1]} against {a.pair[0]} ({os.path.relpath(a.results, ROOT)}), paired by seed: "
+              f"D_B/D_A - 1, mean and 95 % t-interval over pairs")
+        for name, (m, lo, hi, n) in res.items():
+            label = "estimator of record (t_c = 2 tau, fit 1-3 tau)" if name == "D" else name
+            if n < 2:
+                print(f"{label:>48} | n/a: the window does not fit in the stored lags ({n} pairs)")
+            else:
+                print(f"{label:>48} | {100 * m:+8.2f} % | [{100 * lo:+.2f}, {100 * hi:+.2f}] % | {n} pairs")
+        return
     if len(rows) < 2:
         raise SystemExit(f"need at least 2 finished runs with passed checks under {a.results}/runs, found {len(rows)}")
     print(f"{len(rows)} runs from {os.path.relpath(a.results, ROOT)}: D (default Green-Kubo) mean "
           f"{np.mean([r['D'] for r in rows]):.5g} m^2/s, tau_hat mean {np.mean([r['tau'] for r in rows]):.3g} s, "
           f"tail share of D {100 * np.mean([r['tail_share'] for r in rows]):.1f} %")
-    print(f"{'variant':>34} | {'mean D_variant/D_default - 1':>28} | 95 % CI over runs")
-    for name in [k for k in rows[0] if k not in ("run", "D", "tau", "tail_share")]:
+    print(f"{'variant':>42} | {'mean D_variant/D_default - 1':>28} | 95 % CI over runs")
+    for name in [k for k in rows[0] if k not in ("run", "D", "tau", "tail_share", SHAPE_FACTOR)]:
         rel = np.array([r[name] / r["D"] - 1.0 for r in rows])
         rel = rel[np.isfinite(rel)]
+        if len(rel) < 2:
+            print(f"{name:>42} | n/a: the window does not fit in the stored lags of {len(rows) - len(rel)} runs")
+            continue
         m, lo, hi, _, _ = est.t_interval(rel)
-        print(f"{name:>34} | {100 * m:+27.3f} % | [{100 * lo:+.3f}, {100 * hi:+.3f}] %")
+        print(f"{name:>42} | {100 * m:+27.3f} % | [{100 * lo:+.3f}, {100 * hi:+.3f}] %")
 
 
 if __name__ == "__main__":
