@@ -54,7 +54,9 @@ def fig2_section(lines):
     d = os.path.join(RESULTS, "granular_gas")
     if not os.path.exists(os.path.join(d, "diff_D.csv")):
         return
-    p = json.load(open(os.path.join(d, "params.json")))
+    p = _read_json(os.path.join(d, "params.json"))
+    if p is None:
+        raise FileNotFoundError(f"{d}/diff_D.csv has no params.json beside it: the parameters that made it are lost")
     diff = pd.read_csv(os.path.join(d, "diff_D.csv"))
     summ = pd.read_csv(os.path.join(d, "summary.csv"))
     lines += ["## The paper's Fig. 2 (`results/granular_gas/`)", "",

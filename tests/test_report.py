@@ -44,6 +44,14 @@ def test_report_without_sphere_table_says_so(results_copy):
     assert "Sphere gas vs kinetic theory" not in text
 
 
+def test_fig2_without_its_parameters_is_refused_not_guessed(results_copy):
+    (results_copy / "granular_gas" / "params.json").unlink()
+    with pytest.raises(FileNotFoundError, match="no params.json beside it"):
+        report.build()
+    (results_copy / "granular_gas" / "diff_D.csv").unlink()          # no Fig. 2 table: no section, no error
+    assert "## The paper's Fig. 2" not in report.build()
+
+
 def test_committed_sphere_gas_agrees_with_kinetic_theory():
     """The first version's sphere gas (E = 1e7 Pa, 8 seeds) against the Hertz-sphere Boltzmann D,
     recomputed here from the committed tables with a smaller Monte Carlo (SE ~0.3 %)."""
