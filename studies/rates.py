@@ -32,6 +32,22 @@ def run_tau(rec, t_fit=T_FIT):
     return est.initial_decay_time(lag, c, t_fit), n, float(c[0])
 
 
+def run_shape_factor(rec, t_fit=T_FIT):
+    """The VACF's shape factor D / D_init of a record's first analysis window: the Green-Kubo D
+    (:func:`studies.estimators.diffusion_green_kubo`, the estimator of record) over the first-seconds
+    D_init = C(0) tau / 3.  1 for a single-exponential VACF; how far the full D departs from the first
+    Chapman-Enskog approximation that the collision map computes.  NaN when the window's lags are
+    too short for the Green-Kubo estimator."""
+    w = rec["windows"][0]
+    c = np.asarray(w["vacf"])
+    lag = np.arange(len(c)) * w["frame_interval"]
+    try:
+        d = est.diffusion_green_kubo(lag, c)
+    except ValueError:
+        return float("nan")
+    return d / (float(c[0]) * est.initial_decay_time(lag, c, t_fit) / 3.0)
+
+
 def _same(a, b):
     return a is not None and b is not None and math.isclose(float(a), float(b), rel_tol=1e-9)
 
@@ -53,7 +69,7 @@ def _map_for(maps, p):
 
 
 def _per_seed(collected, maps):
-    """{(map file, case, protocol): {seed: {(dt factor, pair key): (tau, n, C(0))}}} of the runs
+    """{(map file, case, protocol): {seed: {(dt factor, pair key): (tau, n, C(0), shape factor)}}} of the runs
     started in equilibrium that have a map.  The pair key (:func:`studies.effects.collect`'s) keeps
     runs of one seed made with other parameters (another run length, say) apart: a case's run is
     paired only with the exact run of its own pair key and dt factor."""
@@ -71,7 +87,7 @@ def _per_seed(collected, maps):
                 if f"{case}/{protocol}" not in m["relaxation_time_n"]:
                     continue
                 per.setdefault((m["file"], case, protocol), {}).setdefault(seed, {})[(p["run"]["dt_factor"], pk)] = \
-                    run_tau(rec)
+                    run_tau(rec) + (run_shape_factor(rec),)
     return per
 
 
@@ -107,7 +123,12 @@ def ratio_rows(collected, maps):
     of the VACF, D_init = C(0) tau / 3 per run, paired by seed (both runs at one dt and one pair key; 95 % Student-t
     interval over seeds), next to the map's prediction (``rows`` of the map file, ± 1.96 se paired
     over its collisions).  Where the gas's VACF is one exponential, D_init is its Green-Kubo D, and
-    a disagreement with the map is a disagreement of the collisions themselves."""
+    a disagreement with the map is a disagreement of the collisions themselves.
+
+    ``shape_relative`` (with ``shape_ci_low``/``shape_ci_high``, ``shape_n_pairs``): the paired ratio
+    of the two cases' VACF shape factors (:func:`run_shape_factor`) - 1.  The Green-Kubo ratio is the
+    first-seconds ratio times it: the part of the Green-Kubo ratio the map does not see.  Pairs whose
+    shape factor is NaN are left out of it (not of the first-seconds ratio)."""
     per = _per_seed(collected, maps)
     by_file = {m["file"]: m for m in maps}
     out = []
@@ -115,20 +136,24 @@ def ratio_rows(collected, maps):
         if case == "exact":
             continue
         ex = per.get((f, "exact", "paired"), {})
-        vals = []
+        vals, shape = [], []
         for s in sorted(seeds):
             common = sorted(set(seeds[s]) & set(ex.get(s, {})))    # a pair: one dt and pair key; the smallest dt
             if common:
-                (tc, _, cc), (te, _, ce) = seeds[s][common[0]], ex[s][common[0]]
+                (tc, _, cc, fc), (te, _, ce, fe) = seeds[s][common[0]], ex[s][common[0]]
                 vals.append(cc * tc / (ce * te) - 1.0)
+                if math.isfinite(fc) and math.isfinite(fe):
+                    shape.append(fc / fe - 1.0)
         mrow = next((r for r in by_file[f]["rows"] if r["case"] == case and r["protocol"] == protocol), None)
         if not vals or mrow is None:
             continue
         mean, lo, hi, _, k = est.t_interval(vals)
+        s_mean, s_lo, s_hi, _, s_k = est.t_interval(shape)
         m = by_file[f]
         out.append({"shape": m["shape"]["kind"], "overlap": m["shape"].get("overlap"),
                     "youngs_modulus": m["material"]["youngs_modulus"], "case": case, "protocol": protocol,
                     "map_relative": mrow["relative"], "map_se": mrow["se"], "gas_relative": mean,
-                    "gas_ci_low": lo, "gas_ci_high": hi, "n_pairs": k, "file": f})
+                    "gas_ci_low": lo, "gas_ci_high": hi, "n_pairs": k, "shape_relative": s_mean,
+                    "shape_ci_low": s_lo, "shape_ci_high": s_hi, "shape_n_pairs": s_k, "file": f})
     out.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["youngs_modulus"], r["case"], r["protocol"]))
     return out

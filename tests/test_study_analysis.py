@@ -550,6 +550,11 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     assert rr["case"] == "uncorrected" and rr["n_pairs"] == 6
     assert rr["gas_ci_low"] <= 0.9 * 1.1 - 1.0 <= rr["gas_ci_high"], rr
     assert rr["map_relative"] == pytest.approx(-0.01)
+    assert rr["shape_n_pairs"] == 6                     # its values: test_rates_shape_factor_ratio_*
+    rec0 = json.loads(next((Path(engine.results_dir(sp)) / "runs").glob("*.json")).read_text())
+    assert math.isfinite(rates.run_shape_factor(rec0))
+    rec0["windows"][0]["vacf"] = rec0["windows"][0]["vacf"][:20]   # 5 s of lags: no Green-Kubo D, a NaN
+    assert math.isnan(rates.run_shape_factor(rec0))
     # runs of the same seeds with other parameters (another run length) are no pairs of these:
     # their uncorrected walkers (tau 50 s) must not be paired with the exact runs above (before the
     # fix they replaced this study's uncorrected runs seed by seed, and the ratio moved to ~+0.8)
@@ -584,6 +589,53 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
         fr, v0 = frames_of(rng, 24, 250.0, 0.5)
         write_record(engine.results_dir(sp0), run, fr, v0, [0.0], 100.0)
     assert rates.rows(effects.collect([sp0]), [m]) == []
+
+
+def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixture(tmp_path):
+    """The shape factors' ratio of :func:`studies.rates.ratio_rows` on OU walkers: mass_only (one
+    exponential, tau 27.5 s) against exact (one exponential, 25 s) has ratio 1 (D = C(0) tau / 3 for
+    both); uncorrected, half its walkers at tau 15 s and half at 35 s, has C(t) = C(0) (e^-t/15 +
+    e^-t/35) / 2, so D = C(0) 25 s / 3 while its first seconds decay at the mean rate, tau_init = 21 s:
+    shape factor 25/21, +19.0 % against exact (less what the estimator's exponential tail misses of
+    the mixture's slower part, computed here on the noise-free curve)."""
+    from studies import rates
+
+    seeds = list(range(1, 7))
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "mass_only", "uncorrected"], "seeds": seeds}],
+                  start="equipartition")
+    rng = np.random.default_rng(5)
+    nw, nf, dt = 432, 2401, 0.25                                         # 600 s runs
+    for run in S.runs(sp):
+        if run["case"] == "uncorrected":
+            parts = [est.simulate_ou(rng, nw // 2, nf, dt, tau, SIGMA_V) for tau in (15.0, 35.0)]
+            vel, pos = (np.concatenate([a[i] for a in parts], axis=1) for i in (0, 1))
+        else:
+            tau, v2 = (25.0, 1.0) if run["case"] == "exact" else (27.5, 0.9)
+            vel, pos = est.simulate_ou(rng, nw, nf, dt, tau, SIGMA_V * math.sqrt(v2))
+        e_t = np.sum(vel ** 2, axis=(1, 2))
+        fr = {"t": np.arange(nf) * dt, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32), "e_trans": e_t,
+              "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(nf), "momentum": np.zeros((nf, 3))}
+        write_record(engine.results_dir(sp), run, fr, vel[0], [0.0], 100.0)
+    n = sp["gas"]["n_particles"] / 10.0 ** 3
+    m = {"file": "map.json", "shape": dict(sp["shapes"]["dimer"]), "material": dict(sp["material"]),
+         "energy_per_particle": sp["gas"]["energy_per_particle"],
+         "relaxation_time_n": {f"{c}/paired": {"value": 25.0 * n, "se": 0.1 * n} for c in ("exact", "mass_only", "uncorrected")},
+         "rows": [{"case": c, "protocol": "paired", "relative": 0.0, "se": 0.001} for c in ("mass_only", "uncorrected")]}
+    rr = {r["case"]: r for r in rates.ratio_rows(effects.collect([sp]), [m])}
+    one = rr["mass_only"]
+    assert one["shape_n_pairs"] == 6 and one["shape_ci_low"] < 0.0 < one["shape_ci_high"], one
+    assert one["shape_ci_high"] - one["shape_ci_low"] < 0.10, one                # about 3.5 % sd a pair
+    # the mixture, noise-free, through the estimator: its tail model misses a little of the 35 s part
+    lag = np.arange(401) * dt
+    c_mix = 3 * SIGMA_V ** 2 * (np.exp(-lag / 15.0) + np.exp(-lag / 35.0)) / 2
+    c_one = 3 * SIGMA_V ** 2 * np.exp(-lag / 25.0)
+    f_mix = est.diffusion_green_kubo(lag, c_mix) / (c_mix[0] * est.initial_decay_time(lag, c_mix) / 3)
+    f_one = est.diffusion_green_kubo(lag, c_one) / (c_one[0] * est.initial_decay_time(lag, c_one) / 3)
+    expect = f_mix / f_one - 1.0
+    assert 0.14 < expect <= 25.0 / 21.0 - 1.0 + 0.005, expect      # the closed form, less the missed tail
+    mix = rr["uncorrected"]
+    assert mix["shape_n_pairs"] == 6 and mix["shape_ci_low"] <= expect <= mix["shape_ci_high"], (mix, expect)
+    assert mix["shape_ci_low"] > 0.1, mix                            # resolved, far from zero
 
 
 def test_state_key_is_the_initial_state():
