@@ -17,8 +17,14 @@ ending): for each variant the mean over seeds of D_B/D_A - 1 with its 95 % t-int
 the independent units), as the report pairs them.  Two more rows need no tail model at all: the
 first seconds (D_init = C(0) tau_init / 3, ``estimators.initial_decay_time``) and the VACF's shape
 factor D/D_init, which is 1 for an exponential VACF; its paired ratio is the part of a Green-Kubo
-ratio that the first seconds do not see.  A variant whose truncation or fit window does not fit in a
-run's stored lags is left out for that run (the count of pairs says so).
+ratio that the first seconds do not see.  Each set's mean tau_hat and shape factor are printed too.
+A run set with two runs of one seed (runs of other parameters, such as another time step) is
+refused: pass the results directory of one parameter set.
+
+Windows beyond the stored lags: a variant whose truncation t_c lies beyond the last lag gives no D
+for that run (n/a, left out of the count of pairs); a tail-fit window that reaches past the last
+lag is clipped there (``estimators.diffusion_green_kubo``), and the output says in how many runs
+or pairs that happened.
 """
 import argparse
 import glob
@@ -45,12 +51,29 @@ FIRST_SECONDS = "first seconds, D_init = C(0) tau_init / 3"
 SHAPE_FACTOR = "shape factor D / D_init"
 
 
+META = ("run", "tau", "tail_share", "clipped")     # run_table keys that are not D values
+
+
 def _gk(lag, c, **kw):
-    """Green-Kubo D, or NaN when the variant's window does not fit in the stored lags."""
+    """Green-Kubo D, or NaN when the variant's truncation (or a 5-lag fit) does not fit in the stored lags."""
     try:
         return est.diffusion_green_kubo(lag, c, **kw)
     except ValueError:
         return float("nan")
+
+
+def _first_seconds(lag, c):
+    """D_init = C(0) tau_init / 3, or NaN when the first seconds give no decay time."""
+    try:
+        return float(c[0]) * est.initial_decay_time(lag, c) / 3.0
+    except ValueError:
+        return float("nan")
+
+
+def value_names(rows):
+    """The D-valued keys of ``rows`` in first-seen order (runs of other lag lengths name their
+    plain integral differently)."""
+    return list(dict.fromkeys(k for r in rows for k in r if k not in META))
 
 
 def msd_slope(lag, msd, lo_tau, tau):
@@ -72,13 +95,16 @@ def run_table(paths):
         c = np.asarray(w["vacf"])
         lag = np.arange(len(c)) * w["frame_interval"]  # as studies.design.run_d (stored lags are rounded)
         base = est.diffusion_green_kubo(lag, c, full_output=True)
-        r = {"run": rec["name"], "D": base["D"], "tau": base["tau_hat"], "tail_share": base["tail"] / base["D"]}
+        r = {"run": rec["name"], "D": base["D"], "tau": base["tau_hat"], "tail_share": base["tail"] / base["D"],
+             "clipped": {name for name, (_, fw) in VARIANTS.items() if fw[1] * base["tau_hat"] > lag[-1] + 1e-9}}
+        if 3.0 * base["tau_hat"] > lag[-1] + 1e-9:
+            r["clipped"] |= {"D", SHAPE_FACTOR}        # the estimator of record fits on 1-3 tau_hat
         for name, (ct, fw) in VARIANTS.items():
             r[name] = _gk(lag, c, c_trunc=ct, fit_window=fw)
         r[f"plain integral to {lag[-1]:.0f} s"] = est.vacf_integral(lag, c)
         r["MSD slope, lags >= 4 tau"] = msd_slope(np.asarray(w["msd_lag_s"]), np.asarray(w["msd"]), 4.0,
                                                   base["tau_hat"])
-        r[FIRST_SECONDS] = float(c[0]) * est.initial_decay_time(lag, c) / 3.0
+        r[FIRST_SECONDS] = _first_seconds(lag, c)
         r[SHAPE_FACTOR] = base["D"] / r[FIRST_SECONDS]
         rows.append(r)
     return rows
@@ -96,14 +122,27 @@ def label_seed(name):
 
 
 def paired(rows, a, b):
-    """Per variant, D_B/D_A - 1 over the seeds both run sets have: {name: (mean, lo, hi, n)}.
+    """Per D value, D_B/D_A - 1 over the seeds both run sets have: {name: (mean, lo, hi, n, clipped)}
+    with ``clipped`` the number of those pairs in which either run's fit window was clipped at its
+    last lag.  Also ``{label: (mean tau_hat, mean shape factor, runs)}`` of the two sets.
 
     ``rows`` from :func:`run_table`; ``a``, ``b`` run labels.  The 'D' row is the estimator of record.
+    Refuses a set with two runs of one seed (other parameters: the pairs would be ambiguous).
     """
-    by = {}
+    by, skipped = {}, []
     for r in rows:
-        lab, seed = label_seed(r["run"])
+        try:
+            lab, seed = label_seed(r["run"])
+        except ValueError:
+            skipped.append(r["run"])
+            continue
+        if lab in (a, b) and seed in by.get(lab, {}):
+            raise SystemExit(f"two runs of {lab} seed {seed} ({by[lab][seed]['run']}, {r['run']}): runs of other "
+                             f"parameters share this directory; pass the results directory of one parameter set")
         by.setdefault(lab, {})[seed] = r
+    if skipped:
+        print(f"[gk_sensitivity] left out {len(skipped)} run(s) whose names are not <label>-s<seed>-<key>: "
+              f"{', '.join(skipped[:3])}", file=sys.stderr)
     for lab in (a, b):
         if lab not in by:
             raise SystemExit(f"no finished run labelled {lab!r}; labels here: {', '.join(sorted(by))}")
@@ -111,11 +150,15 @@ def paired(rows, a, b):
     if len(seeds) < 2:
         raise SystemExit(f"{a} and {b} share {len(seeds)} seed(s); need at least 2 pairs")
     out = {}
-    for name in [k for k in rows[0] if k not in ("run", "tau", "tail_share")]:
-        rel = np.array([by[b][s][name] / by[a][s][name] - 1.0 for s in seeds])
-        rel = rel[np.isfinite(rel)]
-        out[name] = est.t_interval(rel)[:3] + (len(rel),) if len(rel) >= 2 else (np.nan, np.nan, np.nan, len(rel))
-    return out
+    for name in value_names(rows):
+        ok = [s for s in seeds if np.isfinite(by[b][s].get(name, np.nan) / by[a][s].get(name, np.nan))]
+        rel = np.array([by[b][s][name] / by[a][s][name] - 1.0 for s in ok])
+        clipped = sum(1 for s in ok if name in by[a][s]["clipped"] or name in by[b][s]["clipped"])
+        stats = est.t_interval(rel)[:3] if len(rel) >= 2 else (np.nan, np.nan, np.nan)
+        out[name] = stats + (len(rel), clipped)
+    sets = {lab: (float(np.mean([by[lab][s]["tau"] for s in seeds])),
+                  float(np.nanmean([by[lab][s][SHAPE_FACTOR] for s in seeds])), len(seeds)) for lab in (a, b)}
+    return out, sets
 
 
 def main():
@@ -131,15 +174,18 @@ def main():
         paths = [p for p in paths if f"-{a.case}-" in os.path.basename(p)]
     rows = run_table(paths)
     if a.pair:
-        res = paired(rows, *a.pair)
+        res, sets = paired(rows, *a.pair)
         print(f"{a.pair[1]} against {a.pair[0]} ({os.path.relpath(a.results, ROOT)}), paired by seed: "
               f"D_B/D_A - 1, mean and 95 % t-interval over pairs")
-        for name, (m, lo, hi, n) in res.items():
+        for lab, (tau, f, n) in sets.items():
+            print(f"  {lab}: tau_hat {tau:.2f} s, shape factor D/D_init {f:.4f} (mean over the {n} paired seeds)")
+        for name, (m, lo, hi, n, clipped) in res.items():
             label = "estimator of record (t_c = 2 tau, fit 1-3 tau)" if name == "D" else name
+            note = f"; fit window clipped at the last lag in {clipped}" if clipped else ""
             if n < 2:
-                print(f"{label:>48} | n/a: the window does not fit in the stored lags ({n} pairs)")
+                print(f"{label:>48} | n/a: {n} pair(s) with a value (t_c beyond the stored lags?)")
             else:
-                print(f"{label:>48} | {100 * m:+8.2f} % | [{100 * lo:+.2f}, {100 * hi:+.2f}] % | {n} pairs")
+                print(f"{label:>48} | {100 * m:+8.2f} % | [{100 * lo:+.2f}, {100 * hi:+.2f}] % | {n} pairs{note}")
         return
     if len(rows) < 2:
         raise SystemExit(f"need at least 2 finished runs with passed checks under {a.results}/runs, found {len(rows)}")
@@ -147,14 +193,16 @@ def main():
           f"{np.mean([r['D'] for r in rows]):.5g} m^2/s, tau_hat mean {np.mean([r['tau'] for r in rows]):.3g} s, "
           f"tail share of D {100 * np.mean([r['tail_share'] for r in rows]):.1f} %")
     print(f"{'variant':>42} | {'mean D_variant/D_default - 1':>28} | 95 % CI over runs")
-    for name in [k for k in rows[0] if k not in ("run", "D", "tau", "tail_share", SHAPE_FACTOR)]:
-        rel = np.array([r[name] / r["D"] - 1.0 for r in rows])
+    for name in [k for k in value_names(rows) if k not in ("D", SHAPE_FACTOR)]:
+        rel = np.array([r.get(name, np.nan) / r["D"] - 1.0 for r in rows])
         rel = rel[np.isfinite(rel)]
+        clipped = sum(1 for r in rows if name in r["clipped"])
+        note = f" (fit window clipped at the last lag in {clipped} runs)" if clipped else ""
         if len(rel) < 2:
-            print(f"{name:>42} | n/a: the window does not fit in the stored lags of {len(rows) - len(rel)} runs")
+            print(f"{name:>42} | n/a: a value in {len(rel)} of {len(rows)} runs (t_c beyond the stored lags?)")
             continue
         m, lo, hi, _, _ = est.t_interval(rel)
-        print(f"{name:>42} | {100 * m:+27.3f} % | [{100 * lo:+.3f}, {100 * hi:+.3f}] %")
+        print(f"{name:>42} | {100 * m:+27.3f} % | [{100 * lo:+.3f}, {100 * hi:+.3f}] %{note}")
 
 
 if __name__ == "__main__":

@@ -650,8 +650,9 @@ def rate_ratio_section(lines, rr):
               "against the map's prediction; equal to the Green-Kubo ratio where the autocorrelation is one "
               "exponential. The last column is the rest of the Green-Kubo ratio: the paired ratio of the two "
               "cases' VACF shape factors D/D_init − 1 (Green-Kubo D over the first-seconds D; 1 for one "
-              "exponential; `rates.run_shape_factor`), by which the Green-Kubo ratio differs from the first "
-              "seconds' and from the map, a first Chapman-Enskog approximation.", ""]
+              "exponential; `rates.run_shape_factor`): the Green-Kubo ratio is the first-seconds ratio times "
+              "it. The map, a first Chapman-Enskog approximation, is compared with the first-seconds ratio; a "
+              "Green-Kubo ratio apart from its map can be apart through either factor.", ""]
     if not rr:
         return
     lines += ["| shape | D/d_s | E (Pa) | case | protocol | map | gas, first seconds, 95 % CI | pairs | 95 % intervals "
@@ -661,9 +662,8 @@ def rate_ratio_section(lines, rr):
         gas, ov = _gas_against_map(r["n_pairs"], r["gas_relative"], r["gas_ci_low"], r["gas_ci_high"],
                                    r["map_relative"], r["map_se"], pct, interval)
         k = r.get("shape_n_pairs", 0)
-        shape = ("" if k == 0 else pct(r["shape_relative"]) if k < 2 else
-                 f"{pct(r['shape_relative'])} {interval(r['shape_ci_low'], r['shape_ci_high'])}"
-                 + ("" if k == r["n_pairs"] else f" ({k} pairs)"))
+        shape = ("n/a" if k == 0 else f"{pct(r['shape_relative'])} {interval(r['shape_ci_low'], r['shape_ci_high'])}"
+                 + ("" if k == r["n_pairs"] else f" ({k} of {r['n_pairs']} pairs)"))
         lines.append(f"| {r['shape']} | {r['overlap']} | {r['youngs_modulus']:.0e} | {r['case']} | {r['protocol']} | "
                      f"{pct(r['map_relative'])} ± {100 * 1.96 * r['map_se']:.2f} % | {gas} | {r['n_pairs']} | {ov} "
                      f"| {shape} |")

@@ -52,6 +52,22 @@ def test_fig2_without_its_parameters_is_refused_not_guessed(results_copy):
     assert "## The paper's Fig. 2" not in report.build()
 
 
+def test_first_seconds_table_states_the_shape_factors_pairs():
+    base = {"shape": "dimer", "overlap": 0.5, "youngs_modulus": 1e7, "protocol": "paired", "map_relative": 0.01,
+            "map_se": 0.001, "gas_relative": 0.012, "gas_ci_low": 0.0, "gas_ci_high": 0.024, "n_pairs": 3}
+    rr = [dict(base, case="uncorrected", shape_relative=0.004, shape_ci_low=-0.01, shape_ci_high=0.018, shape_n_pairs=3),
+          dict(base, case="mass_only", shape_relative=0.02, shape_ci_low=float("nan"), shape_ci_high=float("nan"),
+               shape_n_pairs=1),
+          dict(base, case="inertia_only", shape_relative=float("nan"), shape_ci_low=float("nan"),
+               shape_ci_high=float("nan"), shape_n_pairs=0)]
+    lines = []
+    report.rate_ratio_section(lines, rr)
+    rows = {ln.split(" | ")[3]: ln for ln in lines if ln.startswith("| dimer")}
+    assert rows["uncorrected"].endswith("| +0.40 % [-1.00, +1.80] % |")
+    assert rows["mass_only"].endswith("| +2.00 % n/a (1 of 3 pairs) |")
+    assert rows["inertia_only"].endswith("| n/a |")
+
+
 def test_committed_sphere_gas_agrees_with_kinetic_theory():
     """The first version's sphere gas (E = 1e7 Pa, 8 seeds) against the Hertz-sphere Boltzmann D,
     recomputed here from the committed tables with a smaller Monte Carlo (SE ~0.3 %)."""

@@ -591,7 +591,7 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     assert rates.rows(effects.collect([sp0]), [m]) == []
 
 
-def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixture(tmp_path):
+def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixture(tmp_path, monkeypatch):
     """The shape factors' ratio of :func:`studies.rates.ratio_rows` on OU walkers: mass_only (one
     exponential, tau 27.5 s) against exact (one exponential, 25 s) has ratio 1 (D = C(0) tau / 3 for
     both); uncorrected, half its walkers at tau 15 s and half at 35 s, has C(t) = C(0) (e^-t/15 +
@@ -636,6 +636,12 @@ def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixtu
     mix = rr["uncorrected"]
     assert mix["shape_n_pairs"] == 6 and mix["shape_ci_low"] <= expect <= mix["shape_ci_high"], (mix, expect)
     assert mix["shape_ci_low"] > 0.1, mix                            # resolved, far from zero
+    # a run whose shape factor is NaN (no Green-Kubo D) leaves its pair out of the shape ratio only
+    orig = rates.run_shape_factor
+    monkeypatch.setattr(rates, "run_shape_factor", lambda rec: math.nan if rec["seed"] == 2 else orig(rec))
+    rr2 = {r["case"]: r for r in rates.ratio_rows(effects.collect([sp]), [m])}
+    assert rr2["uncorrected"]["shape_n_pairs"] == 5 and rr2["uncorrected"]["n_pairs"] == 6
+    assert rr2["uncorrected"]["gas_relative"] == mix["gas_relative"]
 
 
 def test_state_key_is_the_initial_state():
