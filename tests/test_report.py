@@ -171,6 +171,31 @@ def test_collision_map_predictions_come_from_their_files(results_copy):
     assert text.count("Collision-map prediction, the paper's dimer") == 2
 
 
+def test_plain_words_for_other_shapes_from_effects_rows():
+    """The shapes' bullet: every shape but the paper's dimer, paired and equal energy, with the largest
+    95 % bound and the hard-particle scaling inside or outside each interval; nothing without rows."""
+    def row(shape, overlap, protocol, rel, lo, hi, mass, n=9, case="uncorrected", e=1e7):
+        return {"shape": shape, "overlap": overlap, "protocol": protocol, "case": case, "youngs_modulus": e,
+                "n_pairs": n, "relative": rel, "relative_ci_low": lo, "relative_ci_high": hi, "mass_error": mass,
+                "k2_error": -0.15}
+    eff = [row("dimer", 0.5, "paired", 0.0135, 0.0085, 0.0185, 0.185, n=64),            # the paper's: not here
+           row("tetrahedron", 0.5, "paired", 0.0172, 0.0017, 0.0328, 0.501),
+           row("dimer", 0.25, "paired", 0.0295, 0.0183, 0.0406, 0.463, n=7),
+           row("tetrahedron", 0.5, "equal_energy", -0.1643, -0.1740, -0.1545, 0.501),   # hard -18.36 %: outside
+           row("trimer_triangle", 0.5, "equal_energy", -0.1338, -0.1475, -0.1201, 0.35),  # hard -13.93 %: inside
+           row("tetrahedron", 0.5, "paired", 0.5, 0.4, 0.6, 0.501, e=1e9),               # another E: not here
+           row("tetrahedron", 0.5, "paired", 0.5, 0.4, 0.6, 0.501, case="mass_only")]     # another case: not here
+    (text,) = report._other_shapes_words(eff)
+    assert ("+2.95 % [+1.83, +4.06] % (dimer D/d_s = 0.25, mass +46.3 %, k² -15.0 %), +1.72 % [+0.17, +3.28] % "
+            "(tetrahedron, mass +50.1 %, k² -15.0 %) (7-9 seed pairs): for every shape at most 4.1 % of D") in text
+    assert "(tetrahedron; hard particles -18.38 %, outside)" in text                # 1.501^-1/2 - 1
+    assert "(trimer_triangle; hard particles -13.93 %, inside)" in text
+    assert "(9 seed pairs each): the hard-particle mass scaling sqrt(m_exact/m_summed) is inside 1 of 2" in text
+    assert "the measured effects are 96 %, 89 % of it (point estimates" in text       # trimer, tetrahedron
+    assert "+50.0" not in text and "dimer D/d_s = 0.5" not in text
+    assert report._other_shapes_words(eff[:1]) == [] and report._other_shapes_words([]) == []
+
+
 def test_plain_words_from_the_tables_maps_and_share():
     """The three plain answers carry the table's, the maps' and the share's numbers; the k² verdict
     follows the largest mapped k² part; nothing to say without data."""
