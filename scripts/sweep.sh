@@ -14,6 +14,9 @@
 #   scripts/sweep.sh stop SPEC            stop this machine's sweeps of SPEC (their YADE runs die with
 #                                         them; a run in flight is lost and runs again next time), and
 #                                         any queue that holds SPEC, first
+#   scripts/sweep.sh drain SPEC [DIR]     let DIR's sweep of SPEC finish the runs in flight, start no
+#                                         more, and end (nothing lost; any queue that holds SPEC
+#                                         ends first); then `wait`, `collect`
 #   scripts/sweep.sh wait SPEC [DIR]      return when no sweep of SPEC runs in DIR
 #   scripts/sweep.sh queue SPEC [SPEC...] in the background: start each SPEC when the one before it
 #                                         ends (met its targets or spent its budget), so
@@ -22,7 +25,7 @@
 # SPEC: a spec name (studies/specs/SPEC.toml).  DIR: default ../sweep-SPEC beside this repository.
 # WORKERS (default 1): Dask workers of the sweep, one YADE run each.
 set -euo pipefail
-usage() { sed -n '9,23p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '9,26p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 [ $# -ge 2 ] || usage
 cmd=$1
 name=$(basename "$2" .toml)
@@ -58,6 +61,17 @@ refresh() {
     cp -np "$keep/"*.json "$dir/$results/runs/" 2>/dev/null || true
     rm -rf "$keep"
     echo "[sweep] $dir at $(git -C "$dir" rev-parse --short HEAD), $(ls "$dir/$results/runs" | wc -l) finished records of $name"
+}
+
+# first any queue holding SPEC (its whole process group: it would start the next spec)
+end_queues() {
+    for pid in $(pgrep -f "sweep\.sh _queue" || true); do
+        q=$(tr '\0' '\n' < "/proc/$pid/cmdline" 2>/dev/null | sed '1,/^_queue$/d' || true)
+        if grep -qxF "$name" <<< "$q"; then
+            kill -- "-$pid" 2>/dev/null || kill "$pid" 2>/dev/null || true
+            echo "[sweep] ended the queue of" $q
+        fi
+    done
 }
 
 case $cmd in
@@ -113,14 +127,15 @@ case $cmd in
         done
         echo "[queue] $(date -u '+%F %T') UTC: done" ;;
     stop)
-        # first any queue holding SPEC (its whole process group: it would start the next spec)
-        for pid in $(pgrep -f "sweep\.sh _queue" || true); do
-            q=$(tr '\0' '\n' < "/proc/$pid/cmdline" 2>/dev/null | sed '1,/^_queue$/d' || true)
-            if grep -qxF "$name" <<< "$q"; then
-                kill -- "-$pid" 2>/dev/null || kill "$pid" 2>/dev/null || true
-                echo "[sweep] ended the queue of" $q
-            fi
-        done
+        end_queues
         pkill -f "studies sweep $specfile" && echo "[sweep] stopped $name" || echo "[sweep] no sweep of $name running" ;;
+    drain)
+        end_queues
+        if running; then
+            touch "$dir/$results/.drain"        # studies.engine.DRAIN: the driver checks it every few seconds
+            echo "[sweep] draining $name in $dir: the runs in flight finish, no new run starts (then: wait, collect)"
+        else
+            echo "[sweep] no sweep of $name running in $dir"
+        fi ;;
     *) usage ;;
 esac

@@ -149,7 +149,11 @@ def status(spec, log=print):
 def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow_dirty=False, max_runs=None,
           progress_every=30.0, log=print, scratch=None, timeout=None):
     """Run every missing run of ``spec`` (sequential groups: until their targets are met, their
-    ``max_seeds`` reached or the budget spent); returns the manifest rows (dict by key)."""
+    ``max_seeds`` reached or the budget spent); returns the manifest rows (dict by key).
+
+    A file :data:`DRAIN` in the results directory (``scripts/sweep.sh drain``) drains the sweep: runs
+    already started (a progress file under ``.progress``) finish and are recorded, queued ones are
+    cancelled and stay to do, and the driver ends.  A new driver removes a drain file it finds."""
     from distributed import wait
 
     rdir = results_dir(spec)
@@ -162,6 +166,10 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     # progress files left by a driver that was killed: no run of this study is in flight while we
     # hold the lock, so they would only show as phantom running runs
     shutil.rmtree(os.path.join(rdir, ".progress"), ignore_errors=True)
+    drain_path = os.path.join(rdir, DRAIN)
+    if os.path.exists(drain_path):                 # a drain asked of an earlier driver
+        os.remove(drain_path)
+    draining = False
     commit, dirty = runner.git_state()
     if dirty and not allow_dirty:
         raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
@@ -171,7 +179,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     schedule = spec["study"]["schedule"]
     client = cluster = None
     t_start = time.time()
-    n_ok = n_flag = n_fail = n_sub = 0
+    n_ok = n_flag = n_fail = n_sub = n_cancel = 0
     attempted = set()
     try:
         while True:
@@ -216,6 +224,17 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             sim_done, last = 0.0, time.time()
             sequential = any(g.get("target") for g in spec["groups"])
             while pending:
+                if not draining and os.path.exists(drain_path):
+                    draining = True
+                    queued = {f for f in pending if not os.path.exists(
+                        os.path.join(rdir, ".progress", futs[f]["key"] + ".json"))}
+                    client.cancel(list(queued))
+                    pending -= queued
+                    n_cancel += len(queued)
+                    log(f"[study] draining ({DRAIN} found): {len(pending)} run(s) in flight finish, "
+                        f"{len(queued)} queued run(s) cancelled (they stay to do)")
+                    if not pending:
+                        break
                 try:
                     done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
                 except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
@@ -242,7 +261,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                                    updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
                         log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
                     write_manifest(rdir, [rows[r["key"]] for r in runs])
-                if done and sequential:
+                if done and sequential and not draining:
                     # A sequential group whose batch just finished may need more seeds now: plan
                     # again and queue its new runs at their group's priority, ahead of the later
                     # groups' queued runs, instead of after every run submitted so far.
@@ -268,9 +287,14 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     last = now
                     log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
                                        len(futs) - len(pending), len(futs)))
+            if draining:
+                write_manifest(rdir, [rows[r["key"]] for r in runs])
+                log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
+                    "`scripts/sweep.sh start` (or `python -m studies sweep`)")
+                break
         if n_sub:
-            log(f"[study] finished {n_sub} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, {n_flag} flagged, "
-                f"{n_fail} failed")
+            log(f"[study] finished {n_sub - n_cancel} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, "
+                f"{n_flag} flagged, {n_fail} failed" + (f"; {n_cancel} cancelled by the drain" if n_cancel else ""))
     finally:
         if client is not None:
             client.close()
@@ -279,6 +303,9 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
         fcntl.flock(lock, fcntl.LOCK_UN)
         lock.close()
     return rows
+
+
+DRAIN = ".drain"    # a file in the results directory: finish the runs in flight, start no more, end
 
 
 def _priority(run, schedule="in_order"):

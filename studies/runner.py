@@ -132,11 +132,19 @@ def execute(run, settings):
             rec = json.load(f)
         return _summary(rec, reused=True)
     params = run["params"]
-    cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
-    scratch_root = settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")
-    work = os.path.join(scratch_root, f"{run['name']}-{uuid.uuid4().hex[:8]}")
-    os.makedirs(work)
+    # the progress file marks the run as started from its first moment (a draining driver cancels
+    # only runs that have none: studies.engine.sweep)
     prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+    _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
+              state="starting")
+    try:
+        cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
+        scratch_root = settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")
+        work = os.path.join(scratch_root, f"{run['name']}-{uuid.uuid4().hex[:8]}")
+        os.makedirs(work)
+    except BaseException:
+        _remove(prog)
+        raise
     try:
         rin = run_input(params, progress_period=settings.get("progress_period", 20.0))
         rin_path = os.path.join(work, "run.json")
@@ -162,7 +170,6 @@ def execute(run, settings):
             p = subprocess.Popen(cmd + ["-n", "-x", script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                  stdin=subprocess.DEVNULL, env=env, cwd=work, text=True,
                                  preexec_fn=_die_with_parent)
-            _progress(prog, name=run["name"], t=0.0, t_end=t_end, steps_per_s=0.0, eta_s=None, state="starting")
             for line in p.stdout:
                 log.write(line)
                 m = re.match(r"PROGRESS t=([\d.]+) t_end=([\d.]+) steps_per_s=(\d+) eta_s=(\d+)", line)
@@ -203,10 +210,14 @@ def execute(run, settings):
         return _summary(rec, reused=False)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-        try:
-            os.remove(prog)
-        except OSError:
-            pass
+        _remove(prog)
+
+
+def _remove(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass
 
 
 def _summary(rec, reused):

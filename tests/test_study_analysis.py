@@ -493,6 +493,46 @@ def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path
         all(engine.read_manifest(rdir)[r["key"]]["status"] == "done" for r in dropped)
 
 
+def test_driver_drains_finishing_runs_in_flight_and_resumes_after(tmp_path, monkeypatch):
+    """A drain file (scripts/sweep.sh drain) asked while a run is in flight: that run finishes and is
+    recorded, the queued runs are cancelled and stay to do, the driver ends; the next driver removes
+    the stale file and runs the rest.  The fake run marks itself started as runner.execute does (a
+    progress file) and asks for the drain from inside the first run."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3]}])
+    rdir = engine.results_dir(sp)
+    log_path = tmp_path / "ran.txt"
+    inner = _fake_execute_logging_to(log_path)
+
+    def fake_execute(run, settings):
+        prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+        runner.write_atomic(prog, json.dumps({"t": 0.0, "t_end": 1.0, "steps_per_s": 0.0, "eta_s": None}))
+        try:
+            if not log_path.exists():                      # the first run: the user asks for a drain now
+                open(os.path.join(settings["results_dir"], engine.DRAIN), "w").close()
+                import time
+                time.sleep(6.0)                            # the driver sees it while this run is in flight
+            return inner(run, settings)
+        finally:
+            os.remove(prog)
+
+    monkeypatch.setattr(runner, "execute", fake_execute)
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    ran = log_path.read_text().splitlines()
+    assert len(ran) == 1, ran                                          # the run in flight, nothing after it
+    assert sorted(r["status"] for r in rows.values()) == ["done"] + ["todo"] * 5
+    assert any("draining" in ln and "1 run(s) in flight finish, 5 queued run(s) cancelled" in ln for ln in lines), lines
+    assert any(ln.startswith("[study] finished 1 runs") and "5 cancelled by the drain" in ln for ln in lines), lines
+    man = engine.read_manifest(rdir)
+    assert sorted(r["status"] for r in man.values()) == ["done"] + ["todo"] * 5
+    assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo")   # not counted as tries
+    assert os.path.exists(os.path.join(rdir, engine.DRAIN))            # left for a look; the next driver clears it
+    lines2 = []
+    rows2 = engine.sweep(sp, workers=1, allow_dirty=True, log=lines2.append, progress_every=1.0)
+    assert all(r["status"] == "done" for r in rows2.values()) and len(log_path.read_text().splitlines()) == 6
+    assert not os.path.exists(os.path.join(rdir, engine.DRAIN)) and not any("draining" in ln for ln in lines2)
+
+
 def test_round_robin_schedule_gives_every_group_its_seeds_before_extending_one(tmp_path, monkeypatch):
     """``schedule = "round_robin"``: a sequential group that keeps adding seeds (target out of reach)
     does not starve a later group; the later group's four seeds all run before the first group's

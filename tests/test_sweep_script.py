@@ -153,3 +153,32 @@ def test_queue_starts_each_spec_after_the_one_before_and_stop_ends_it(repo, tmp_
     _until(lambda: log.read_text().rstrip().endswith("done"), "the queue to finish")
     assert _sweep(repo, "wait", b).returncode == 0
     assert _sweep(repo, "queue", a, "no_such_spec").returncode == 2      # every spec checked first
+
+
+def test_drain_asks_the_running_driver_and_ends_the_queue_first(repo, tmp_path, monkeypatch, names):
+    a, b = names
+    for n in (a, b):
+        _spec(repo, n)
+        assert _sweep(repo, "refresh", n).returncode == 0
+    res = tmp_path / f"sweep-{a}" / "results" / a
+    drain = res / ".drain"                                                # studies.engine.DRAIN
+    p = _sweep(repo, "drain", a)                                          # nothing runs: nothing to ask
+    assert p.returncode == 0 and f"no sweep of {a} running" in p.stdout and not drain.exists(), p.stdout
+    log = tmp_path / "sweep-queue.log"
+    monkeypatch.setenv("SWEEP_POLL", "0.1")
+    with open(res / ".driver.lock", "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)                     # a's driver "runs"
+        assert _sweep(repo, "queue", a, b).returncode == 0
+        _until(lambda: log.exists() and f"{a} did not start" in log.read_text(), "the queue to reach a")
+        p = _sweep(repo, "drain", a)
+        assert p.returncode == 0 and f"ended the queue of {a} {b}" in p.stdout and "draining" in p.stdout, p.stdout
+        assert drain.exists()
+        _until(lambda: subprocess.run(["pgrep", "-f", f"_queue {a} {b}"], capture_output=True).returncode != 0,
+               "the queue to end")
+    time.sleep(0.3)
+    assert f"UTC: {b}" not in log.read_text()                            # b never started
+
+
+def test_engine_names_the_drain_file_the_script_writes():
+    from studies import engine
+    assert f'$results/{engine.DRAIN}"' in (ROOT / "scripts" / "sweep.sh").read_text()
