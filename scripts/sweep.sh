@@ -131,6 +131,12 @@ case $cmd in
         pkill -f "studies sweep $specfile" && echo "[sweep] stopped $name" || echo "[sweep] no sweep of $name running" ;;
     drain)
         end_queues
+        # a driver the queue has just launched may not hold its lock yet: give it the time start gives it
+        for _ in $(seq 600); do
+            running && break
+            pgrep -f "studies sweep $specfile" > /dev/null || break
+            sleep 0.1
+        done
         if running; then
             touch "$dir/$results/.drain"        # studies.engine.DRAIN: the driver checks it every few seconds
             echo "[sweep] draining $name in $dir: the runs in flight finish, no new run starts (then: wait, collect)"

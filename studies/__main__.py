@@ -62,6 +62,10 @@ def main(argv=None):
     if a.command in ("run", "sweep"):
         engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
                      allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
+        if a.command == "run" and os.path.exists(os.path.join(engine.results_dir(spec), engine.DRAIN)):
+            print(f"[run] the sweep was drained ({engine.DRAIN} in the results directory): runs remain to do, "
+                  "so no analysis; run again to resume", file=sys.stderr)
+            return 1
     if a.command == "status":
         rows = engine.status(spec)
         from collections import Counter

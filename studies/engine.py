@@ -202,6 +202,10 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
             if not todo:
                 break
+            if os.path.exists(drain_path):
+                draining = True
+                log(f"[study] draining ({DRAIN} found): {len(todo)} run(s) to do not submitted")
+                break
             if client is None:
                 workers = workers or os.cpu_count() or 1
                 client, cluster = _client(scheduler, workers)
@@ -226,7 +230,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             while pending:
                 if not draining and os.path.exists(drain_path):
                     draining = True
-                    queued = {f for f in pending if not os.path.exists(
+                    queued = {f for f in pending if not f.done() and not os.path.exists(
                         os.path.join(rdir, ".progress", futs[f]["key"] + ".json"))}
                     client.cancel(list(queued))
                     pending -= queued
@@ -242,10 +246,18 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 for f in done:
                     run = futs[f]
                     row = rows[run["key"]]
+                    try:
+                        summ, err = f.result(), None
+                    except Exception as e:  # noqa: BLE001 - recorded below
+                        summ, err = None, e
+                    if isinstance(summ, dict) and summ.get("drained"):
+                        n_cancel += 1        # began after the drain and did nothing: it stays to do
+                        continue
                     row["attempts"] = int(row["attempts"] or 0) + 1
                     sim_done += run["params"]["run"]["t_end"]
                     try:
-                        summ = f.result()
+                        if err is not None:
+                            raise err
                         with open(runner.record_path(rdir, run)) as fh:
                             _fill_done(row, json.load(fh), rdir)
                         flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
@@ -286,12 +298,13 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 if pending and now - last >= progress_every:
                     last = now
                     log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
-                                       len(futs) - len(pending), len(futs)))
+                                       len(futs) - len(pending) - n_cancel, len(futs) - n_cancel))
             if draining:
                 write_manifest(rdir, [rows[r["key"]] for r in runs])
-                log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
-                    "`scripts/sweep.sh start` (or `python -m studies sweep`)")
                 break
+        if draining:
+            log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
+                "`scripts/sweep.sh start` (or `python -m studies sweep`)")
         if n_sub:
             log(f"[study] finished {n_sub - n_cancel} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, "
                 f"{n_flag} flagged, {n_fail} failed" + (f"; {n_cancel} cancelled by the drain" if n_cancel else ""))
@@ -305,7 +318,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     return rows
 
 
-DRAIN = ".drain"    # a file in the results directory: finish the runs in flight, start no more, end
+DRAIN = runner.DRAIN    # a file in the results directory: finish the runs in flight, start no more, end
 
 
 def _priority(run, schedule="in_order"):

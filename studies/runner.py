@@ -112,6 +112,9 @@ def git_state():
         return "unknown", True
 
 
+DRAIN = ".drain"    # a file in the results directory: the sweep drains (studies.engine.sweep)
+
+
 def _progress(path, **kw):
     try:
         write_atomic(path, json.dumps(dict(kw, wall=time.time())))
@@ -120,7 +123,8 @@ def _progress(path, **kw):
 
 
 def execute(run, settings):
-    """Run one study run and write its reduced record; returns a small summary dict.
+    """Run one study run and write its reduced record; returns a small summary dict, or
+    ``{"drained": True}`` without running anything when the results directory holds :data:`DRAIN`.
 
     ``settings``: ``results_dir``, ``yade`` (see :func:`yade_command`), ``cuts`` (analysis window
     starts, s), ``max_lag`` (s), ``energy_tol``, ``momentum_tol``, ``progress_period`` (s),
@@ -132,11 +136,15 @@ def execute(run, settings):
             rec = json.load(f)
         return _summary(rec, reused=True)
     params = run["params"]
-    # the progress file marks the run as started from its first moment (a draining driver cancels
-    # only runs that have none: studies.engine.sweep)
+    # the progress file marks the run as started (a draining driver cancels only runs that have
+    # none, studies.engine.sweep); written first, then the drain file checked, so that a run the
+    # driver cancels as queued never starts YADE, even if Dask had already begun it
     prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
     _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
               state="starting")
+    if os.path.exists(os.path.join(settings["results_dir"], DRAIN)):
+        _remove(prog)
+        return {"drained": True}
     try:
         cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
         scratch_root = settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")

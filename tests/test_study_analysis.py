@@ -533,6 +533,102 @@ def test_driver_drains_finishing_runs_in_flight_and_resumes_after(tmp_path, monk
     assert not os.path.exists(os.path.join(rdir, engine.DRAIN)) and not any("draining" in ln for ln in lines2)
 
 
+def _drain_fake(log_path, asks_drain, hold=6.0, pause=0.0):
+    """A fake runner.execute that keeps runner.execute's drain protocol (progress file first, then
+    the drain check, returning the drained sentinel) and asks for a drain from inside the runs for
+    which ``asks_drain(run)`` is true, holding them ``hold`` s so the driver sees it in flight."""
+    inner = _fake_execute_logging_to(log_path)
+
+    def fake_execute(run, settings):
+        import time
+        prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+        runner.write_atomic(prog, json.dumps({"t": 0.0, "t_end": 1.0, "steps_per_s": 0.0, "eta_s": None}))
+        try:
+            if not asks_drain(run):
+                time.sleep(pause)            # Dask has begun this run; the drain comes meanwhile
+            if os.path.exists(os.path.join(settings["results_dir"], runner.DRAIN)):
+                return {"drained": True}
+            if asks_drain(run):
+                open(os.path.join(settings["results_dir"], runner.DRAIN), "w").close()
+                time.sleep(hold)
+            return inner(run, settings)
+        finally:
+            os.remove(prog)
+    return fake_execute
+
+
+def test_a_run_that_began_after_the_drain_returns_untried_and_a_sequential_group_adds_no_seeds(tmp_path, monkeypatch):
+    """Two paths of a drain: (1) a run Dask began before the driver saw the drain file finds the
+    file itself and returns the drained sentinel, which the driver counts as cancelled, not as an
+    attempt; (2) a sequential group whose last run finishes during the drain is not planned again
+    (its new seeds would start: the driver cancels queued runs once, when it first sees the file)."""
+    from studies import engine as eng
+    g = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1],
+         "target": {"case": "uncorrected", "halfwidth": 0.001, "batch": 2}, "max_seeds": 5}
+    sp = spec_for(tmp_path, [g])
+    log_path = tmp_path / "ran.txt"
+    # (2): the second run of seed 1 asks for the drain; without the guard seeds 2 and 3 would run
+    monkeypatch.setattr(runner, "execute", _drain_fake(log_path, lambda r: r["case"] == "uncorrected"))
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    assert len(log_path.read_text().splitlines()) == 2 and len(rows) == 2, lines
+    assert any(ln.startswith("[study] drained") for ln in lines)
+    # (1): a drain file already there when a run begins (here: asked by the planner's first call,
+    # after the driver cleared stale files and before it submitted): nothing is submitted at all
+    sp2 = spec_for(tmp_path / "b", [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2]}])
+    rdir2 = engine.results_dir(sp2)
+    plan = eng._plan
+
+    def plan_then_drain(spec, rdir, log):
+        open(os.path.join(rdir, runner.DRAIN), "w").close()
+        return plan(spec, rdir, log)
+    monkeypatch.setattr(eng, "_plan", plan_then_drain)
+    log2 = tmp_path / "ran2.txt"
+    monkeypatch.setattr(runner, "execute", _drain_fake(log2, lambda r: False))
+    lines = []
+    rows = engine.sweep(sp2, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    assert not log2.exists() and all(r["status"] == "todo" for r in rows.values()), lines
+    assert any("4 run(s) to do not submitted" in ln for ln in lines), lines
+    monkeypatch.setattr(eng, "_plan", plan)
+    # the sentinel through the driver: two workers begin seed 1's two runs together; the exact one
+    # asks for the drain at once, the other finds the file 0.5 s later and returns untried
+    os.remove(os.path.join(rdir2, runner.DRAIN))
+    log3 = tmp_path / "ran3.txt"
+    monkeypatch.setattr(runner, "execute", _drain_fake(log3, lambda r: r["case"] == "exact" and r["seed"] == 1,
+                                                       hold=2.0, pause=0.5))
+    lines = []
+    rows = engine.sweep(sp2, workers=2, allow_dirty=True, log=lines.append, progress_every=1.0)
+    assert log3.read_text().split() == ["1", "exact"], lines
+    assert sorted(r["status"] for r in rows.values()) == ["done", "todo", "todo", "todo"]
+    man = engine.read_manifest(rdir2)
+    assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo"), man
+    assert any(ln.startswith("[study] finished 1 runs") and "3 cancelled by the drain" in ln for ln in lines), lines
+
+
+def test_execute_marks_the_run_started_first_and_never_starts_yade_during_a_drain(tmp_path, monkeypatch):
+    """runner.execute writes its progress file before anything else (a draining driver reads it as
+    "in flight"), removes it if it fails before the work begins, and with a drain file present
+    returns the drained sentinel without looking for YADE."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}])
+    (run,) = S.runs(sp)
+    rdir = engine.results_dir(sp)
+    settings = engine.settings_of(sp, rdir)
+    prog = Path(rdir) / ".progress" / (run["key"] + ".json")
+    seen = []
+
+    def no_yade(*a, **k):
+        seen.append(prog.exists())
+        raise runner.RunError("no YADE here")
+    monkeypatch.setattr(runner, "yade_command", no_yade)
+    with pytest.raises(runner.RunError, match="no YADE here"):
+        runner.execute(run, settings)
+    assert seen == [True] and not prog.exists()
+    (Path(rdir) / runner.DRAIN).write_text("")
+    seen.clear()
+    assert runner.execute(run, settings) == {"drained": True}
+    assert seen == [] and not prog.exists()
+
+
 def test_round_robin_schedule_gives_every_group_its_seeds_before_extending_one(tmp_path, monkeypatch):
     """``schedule = "round_robin"``: a sequential group that keeps adding seeds (target out of reach)
     does not starve a later group; the later group's four seeds all run before the first group's
