@@ -230,8 +230,8 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             while pending:
                 if not draining and os.path.exists(drain_path):
                     draining = True
-                    queued = {f for f in pending if not f.done() and not os.path.exists(
-                        os.path.join(rdir, ".progress", futs[f]["key"] + ".json"))}
+                    queued = {f for f in pending
+                              if not f.done() and not os.path.exists(runner.progress_path(rdir, futs[f]["key"]))}
                     client.cancel(list(queued))
                     pending -= queued
                     n_cancel += len(queued)
@@ -336,11 +336,10 @@ def _priority(run, schedule="in_order"):
 
 def _progress_line(rdir, futs, pending, sim_done, sim_total, elapsed, n_done, n_all):
     parts, sim_now = [], sim_done
-    pdir = os.path.join(rdir, ".progress")
     for f in pending:
         run = futs[f]
         try:
-            with open(os.path.join(pdir, run["key"] + ".json")) as fh:
+            with open(runner.progress_path(rdir, run["key"])) as fh:
                 p = json.load(fh)
         except (OSError, ValueError):
             continue

@@ -115,6 +115,12 @@ def git_state():
 DRAIN = ".drain"    # a file in the results directory: the sweep drains (studies.engine.sweep)
 
 
+def progress_path(results_dir, run_key):
+    """The progress file of a run in flight: written by :func:`execute`, read by the driver (its
+    progress lines, and a drain's test of "started"), removed when the run ends."""
+    return os.path.join(results_dir, ".progress", run_key + ".json")
+
+
 def _progress(path, **kw):
     try:
         write_atomic(path, json.dumps(dict(kw, wall=time.time())))
@@ -139,7 +145,7 @@ def execute(run, settings):
     # the progress file marks the run as started (a draining driver cancels only runs that have
     # none, studies.engine.sweep); written first, then the drain file checked, so that a run the
     # driver cancels as queued never starts YADE, even if Dask had already begun it
-    prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+    prog = progress_path(settings["results_dir"], run["key"])
     _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
               state="starting")
     if os.path.exists(os.path.join(settings["results_dir"], DRAIN)):

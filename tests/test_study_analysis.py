@@ -504,7 +504,7 @@ def test_driver_drains_finishing_runs_in_flight_and_resumes_after(tmp_path, monk
     inner = _fake_execute_logging_to(log_path)
 
     def fake_execute(run, settings):
-        prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+        prog = runner.progress_path(settings["results_dir"], run["key"])
         runner.write_atomic(prog, json.dumps({"t": 0.0, "t_end": 1.0, "steps_per_s": 0.0, "eta_s": None}))
         try:
             if not log_path.exists():                      # the first run: the user asks for a drain now
@@ -541,7 +541,7 @@ def _drain_fake(log_path, asks_drain, hold=6.0, pause=0.0):
 
     def fake_execute(run, settings):
         import time
-        prog = os.path.join(settings["results_dir"], ".progress", run["key"] + ".json")
+        prog = runner.progress_path(settings["results_dir"], run["key"])
         runner.write_atomic(prog, json.dumps({"t": 0.0, "t_end": 1.0, "steps_per_s": 0.0, "eta_s": None}))
         try:
             if not asks_drain(run):
@@ -613,7 +613,7 @@ def test_execute_marks_the_run_started_first_and_never_starts_yade_during_a_drai
     (run,) = S.runs(sp)
     rdir = engine.results_dir(sp)
     settings = engine.settings_of(sp, rdir)
-    prog = Path(rdir) / ".progress" / (run["key"] + ".json")
+    prog = Path(runner.progress_path(rdir, run["key"]))
     seen = []
 
     def no_yade(*a, **k):
@@ -774,7 +774,7 @@ def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixtu
     assert mix["shape_ci_low"] > 0.1, mix                            # resolved, far from zero
     # a run whose shape factor is NaN (no Green-Kubo D) leaves its pair out of the shape ratio only
     orig = rates.run_shape_factor
-    monkeypatch.setattr(rates, "run_shape_factor", lambda rec: math.nan if rec["seed"] == 2 else orig(rec))
+    monkeypatch.setattr(rates, "run_shape_factor", lambda rec, **kw: math.nan if rec["seed"] == 2 else orig(rec, **kw))
     rr2 = {r["case"]: r for r in rates.ratio_rows(effects.collect([sp]), [m])}
     assert rr2["uncorrected"]["shape_n_pairs"] == 5 and rr2["uncorrected"]["n_pairs"] == 6
     assert rr2["uncorrected"]["gas_relative"] == mix["gas_relative"]
