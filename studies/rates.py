@@ -22,30 +22,36 @@ from . import estimators as est
 T_FIT = 2.0     # s of VACF fitted: 0.05-0.08 tau for these gases, 8 frames at 0.25 s
 
 
+def _vacf(rec):
+    """(lags (s), VACF (m^2/s^2)) of a record's first analysis window."""
+    w = rec["windows"][0]
+    c = np.asarray(w["vacf"])
+    return np.arange(len(c)) * w["frame_interval"], c
+
+
 def run_tau(rec, t_fit=T_FIT):
     """(tau (s) from the record's first analysis window, number density n (m^-3), C(0) = <v^2>
     (m^2/s^2)).  C(0) tau / 3 is the run's D if its VACF is a single exponential."""
-    w = rec["windows"][0]
-    c = np.asarray(w["vacf"])
-    lag = np.arange(len(c)) * w["frame_interval"]
+    lag, c = _vacf(rec)
     n = rec["params"]["gas"]["n_particles"] / rec["box_length"] ** 3
     return est.initial_decay_time(lag, c, t_fit), n, float(c[0])
 
 
-def run_shape_factor(rec, t_fit=T_FIT):
+def run_shape_factor(rec, t_fit=T_FIT, tau=None):
     """The VACF's shape factor D / D_init of a record's first analysis window: the Green-Kubo D
     (:func:`studies.estimators.diffusion_green_kubo`, the estimator of record) over the first-seconds
     D_init = C(0) tau / 3.  1 for a single-exponential VACF; how far the full D departs from the first
-    Chapman-Enskog approximation that the collision map computes.  NaN when the window's lags are
-    too short for the Green-Kubo estimator."""
-    w = rec["windows"][0]
-    c = np.asarray(w["vacf"])
-    lag = np.arange(len(c)) * w["frame_interval"]
+    Chapman-Enskog approximation that the collision map computes.  ``tau``: the record's
+    :func:`run_tau` where the caller has it (else fitted here).  NaN when the window's lags are too
+    short for the Green-Kubo estimator."""
+    lag, c = _vacf(rec)
     try:
         d = est.diffusion_green_kubo(lag, c)
     except ValueError:
         return float("nan")
-    return d / (float(c[0]) * est.initial_decay_time(lag, c, t_fit) / 3.0)
+    if tau is None:
+        tau = est.initial_decay_time(lag, c, t_fit)
+    return d / (float(c[0]) * tau / 3.0)
 
 
 def _same(a, b):
@@ -86,8 +92,9 @@ def _per_seed(collected, maps):
             for (case, protocol), (_, rec) in cases.items():
                 if f"{case}/{protocol}" not in m["relaxation_time_n"]:
                     continue
+                tau_n_c0 = run_tau(rec)
                 per.setdefault((m["file"], case, protocol), {}).setdefault(seed, {})[(p["run"]["dt_factor"], pk)] = \
-                    run_tau(rec) + (run_shape_factor(rec),)
+                    tau_n_c0 + (run_shape_factor(rec, tau=tau_n_c0[0]),)
     return per
 
 

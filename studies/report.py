@@ -429,15 +429,13 @@ def _other_shapes_words(effect_rows, youngs_modulus=1e7):
                                  f"k² {pct(e['k2_error'], 1)})" for e in paired)
                      + f" ({pairs(paired)}): for every shape at most {100 * top:.1f} % of D at 95 %.")
     if equal:
-        sub = []
-        for e in equal:
-            hard = (1.0 + e["mass_error"]) ** -0.5 - 1.0
-            where = "inside" if e["relative_ci_low"] <= hard <= e["relative_ci_high"] else "outside"
-            sub.append(f"{ci(e)} ({_shape_label(e)}; hard particles {pct(hard)}, {where})")
-        n_in = sum("inside" in x for x in sub)
+        hard = [(1.0 + e["mass_error"]) ** -0.5 - 1.0 for e in equal]
+        inside = [e["relative_ci_low"] <= h <= e["relative_ci_high"] for e, h in zip(equal, hard)]
+        sub = [f"{ci(e)} ({_shape_label(e)}; hard particles {pct(h)}, {'inside' if i else 'outside'})"
+               for e, h, i in zip(equal, hard, inside)]
         parts.append("At the same kinetic energy: " + ", ".join(sub) + f" ({pairs(equal)}): the hard-particle mass "
-                     f"scaling sqrt(m_exact/m_summed) is inside {n_in} of {len(equal)} intervals; the measured effects are "
-                     + ", ".join(f"{100 * e['relative'] / ((1.0 + e['mass_error']) ** -0.5 - 1.0):.0f} %" for e in equal)
+                     f"scaling sqrt(m_exact/m_summed) is inside {sum(inside)} of {len(equal)} intervals; the measured "
+                     "effects are " + ", ".join(f"{100 * e['relative'] / h:.0f} %" for e, h in zip(equal, hard))
                      + " of it (point estimates).")
     return ["* **Other shapes and overlaps (gas, uncorrected vs exact):** " + " ".join(parts)]
 
