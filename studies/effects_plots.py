@@ -111,8 +111,8 @@ def plot_all(results, log=print):
             xs = [100 * r["mass_error"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]
             ys = [100 * r["relative"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]
             axes[0].plot(xs, ys, "kx", ms=6, label="collision-map prediction (each case, shape, E)")
-        for ax, what in zip(axes, ("mass error of the summed clump, m_sum/m_exact − 1 (%)",
-                                   "k² = I/m error of the summed clump (%)")):
+        for ax, what in zip(axes, ("mass error of the case's body, m_case/m_exact − 1 (%)\n(uncorrected: the summed clump; mass_only: 0)",
+                                   "k² = I/m error of the case's body against exact (%)\n(I: I_⊥ of a linear clump, tr(I)/3 otherwise)")):
             ax.axhline(0, color="k", lw=0.8)
             ax.set_xlabel(what)
             ax.grid(alpha=0.3)

@@ -153,7 +153,11 @@ def effects_section(lines, rows):
     if not rows:
         lines += ["No paired runs finished yet.", ""]
         return
-    lines += ["| shape | D/d_s | protocol | E (Pa) | case | pairs | D_case/D_exact − 1 | 95 % CI | mass error | k² error | YADE | rotation |",
+    lines += ["Mass error and k² error: of the body each case runs with, against the exact clump (uncorrected: the "
+              "summed clump; mass_only: exact m, summed I; inertia_only: summed m, exact I); k² = I/m with I the mean "
+              "principal moment about the axes a frictionless contact can turn (I_⊥ of a linear clump, tr(I)/3 "
+              "otherwise); none for the spheres.", "",
+              "| shape | D/d_s | protocol | E (Pa) | case | pairs | D_case/D_exact − 1 | 95 % CI | mass error | k² error | YADE | rotation |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['shape']} | {r['overlap']} | {r['protocol']} | {r['youngs_modulus']:.0e} | {r['case']} | "

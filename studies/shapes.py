@@ -170,18 +170,37 @@ def bounding_radius(shape, density):
     return float(np.max(np.linalg.norm(np.asarray(p["members"]), axis=1) + np.asarray(p["radii"])))
 
 
-def mass_error(shape, density):
-    """m_sum / m_exact - 1 (the relative mass error of summing the spheres)."""
+def mass_error(shape, density, mass="sum"):
+    """m / m_exact - 1 of a body whose mass comes from ``mass`` ("sum": the summed spheres, the
+    relative mass error of summing them; "exact": 0).  Dimensionless."""
     p = properties(shape, density)
-    return p["sum"]["mass"] / p["exact"]["mass"] - 1.0
+    return p[_source(mass)]["mass"] / p["exact"]["mass"] - 1.0
 
 
-def k2_error(shape, density):
-    """Relative error of the squared radius of gyration k^2 = tr(I) / (2 m) of the summed clump
-    (inertia about its own COM) against the exact one."""
+def _source(name):
+    if name not in ("sum", "exact"):
+        raise ValueError(f"mass or inertia source must be 'sum' or 'exact', not {name!r}")
+    return name
+
+
+def k2_error(shape, density, mass="sum", inertia="sum"):
+    """Relative error of the squared radius of gyration k^2 = I/m of a body whose mass comes from
+    ``mass`` and whose inertia from ``inertia`` ("sum" | "exact"; the defaults: the summed clump,
+    YADE's appendClumped) against the exact clump's (inertia about each body's own COM).
+
+    I is the mean principal moment over the axes a contact between frictionless spheres can
+    turn the clump about: a linear clump's two transverse axes (its axial moment never enters
+    its motion: a frictionless contact's force passes through a member's centre, on the axis),
+    all three axes otherwise, i.e. tr(I)/3.  For a dimer this is I_perp/m, the number the
+    collision maps report as "largest moment over mass" (benchmarks/case_map.py).  The summed
+    clump's I is eq. 6 of the paper without its overlap term; the exact one, eqs. 3-7.
+    Dimensionless."""
     p = properties(shape, density)
 
-    def k2(s):
-        return np.trace(np.asarray(s["inertia"])) / (2.0 * s["mass"])
+    def moment(s):
+        inertia = np.asarray(s["inertia"], float)        # body frame: a linear clump's axis is z
+        return (inertia[0, 0] + inertia[1, 1]) / 2 if p["linear"] else np.trace(inertia) / 3
 
-    return float(k2(p["sum"]) / k2(p["exact"]) - 1.0)
+    ex = p["exact"]
+    k2 = moment(p[_source(inertia)]) / p[_source(mass)]["mass"]
+    return float(k2 / (moment(ex) / ex["mass"]) - 1.0)
