@@ -261,6 +261,72 @@ def cost_of_seeds(spec, gi, seeds, recs):
     return total
 
 
+def _prior_key(params):
+    """What a prior projection must share with its reference: everything in a run's parameters but
+    the seed, the Young's modulus, the run length, the time-step factor and the versions."""
+    q = {k: v for k, v in params.items() if k not in ("seed", "model_version", "clumpprops_version")}
+    q["material"] = {k: v for k, v in params["material"].items() if k != "youngs_modulus"}
+    q["run"] = {k: v for k, v in params["run"].items() if k not in ("t_end", "dt_factor")}
+    return json.dumps(q, sort_keys=True, default=str)
+
+
+def prior_projection(spec, gi, refs):
+    """Pairs and CPU-hours a sequential group's target would need, projected before it has two
+    pairs of its own from a reference group that has: the same shape, gas, case, protocol and
+    start at another Young's modulus or run length.
+
+    ``refs``: candidate references, [(spec, group index, status of :func:`plan`, records)].  The
+    reference with the most pairs is used.  Scalings (assumptions, stated with the result): the
+    per-pair standard deviation of D_case/D_exact - 1 as 1/sqrt(T) of the analysed length T (the
+    reference's mean analysis cut taken off both run lengths); the CPU cost of a run as
+    t_end sqrt(E) / dt_factor (the time step goes as E^-1/2, docs/timestep.md), at equal cost per
+    step: an upper bound, since the recording's cost per simulated second does not grow with E (the
+    committed sphere-gas runs cost 1.9x more per simulated second at 1e8 Pa than at 1e7 Pa, not
+    3.2x).  Returns None without a reference, else a dict: ``ref`` (study name), ``ref_pairs``,
+    ``ref_youngs_modulus`` (Pa), ``ref_t_end`` (s), ``sd`` (scaled), ``n_needed``,
+    ``halfwidth_at_max`` (at ``max_seeds``), ``max_seeds``, ``cpu_hours_per_pair``,
+    ``cpu_hours_to_target`` (for ``n_needed`` pairs; None where the reference's run cost is not
+    known).
+    """
+    g = spec["groups"][gi]
+    tgt = g["target"]
+    p = S.resolve_run(spec, g, tgt["case"], g["seeds"][0])
+    key = _prior_key(p)
+    best = None
+    for rsp, rgi, rst, rrecs in refs:
+        rg = rsp["groups"][rgi]
+        if rst.get("case") != tgt["case"] or rst["n"] < 2 or not (rst["sd"] == rst["sd"]):
+            continue
+        rp = S.resolve_run(rsp, rg, tgt["case"], rg["seeds"][0])
+        if _prior_key(rp) != key or (rsp is spec and rgi == gi):
+            continue
+        if best is None or rst["n"] > best[2]["n"]:
+            best = (rsp, rgi, rst, rrecs, rp)
+    if best is None:
+        return None
+    rsp, rgi, rst, rrecs, rp = best
+    runs = [r for r in _sequential_runs(rsp, rgi, rsp["groups"][rgi]["seeds"]) if r["key"] in rrecs]
+    cuts = [analysis_cut(rrecs[r["key"]], rsp["analysis"]["t_eq"])[0] for r in runs]
+    cut = float(np.mean(cuts)) if cuts else 0.0
+    t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
+    if t <= cut:
+        return None
+    sd = rst["sd"] * np.sqrt((t_ref - cut) / (t - cut))
+    need = est.pairs_needed(sd, tgt["halfwidth"], est.MIN_PAIRS)
+    max_n = g.get("max_seeds")
+    hw_max = None if max_n is None else float(est._tq(0.95, max_n - 1) * sd / np.sqrt(max_n))
+    e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
+    ref_seed = max([int(r["seed"]) for r in runs], default=rsp["groups"][rgi]["seeds"][0]) + 1
+    ref_pair = pair_cost(rsp, rgi, ref_seed, rrecs)      # a new pair of the reference, at its time step
+    ref_f = S.resolve_run(rsp, rsp["groups"][rgi], tgt["case"], ref_seed)["run"]["dt_factor"]
+    per = None if ref_pair is None else float(ref_pair * (t / t_ref) * np.sqrt(e / e_ref)
+                                               * ref_f / p["run"]["dt_factor"])
+    return {"ref": rsp["study"]["name"], "ref_pairs": int(rst["n"]), "ref_youngs_modulus": e_ref,
+            "ref_t_end": t_ref, "sd": float(sd), "n_needed": int(need), "halfwidth_at_max": hw_max,
+            "max_seeds": max_n, "cpu_hours_per_pair": per,
+            "cpu_hours_to_target": None if per is None else per * need}
+
+
 def shape_label(g):
     """A group's shape as the status lines and the report name it: "dimer", or "dimer at E = 1e+08 Pa"
     for a group that sets its own Young's modulus (a stiffness series)."""

@@ -637,6 +637,23 @@ def _tq(conf, dof):
 MIN_PAIRS = 12       # the sequential design's pilot size: it never stops on fewer pairs (coverage)
 
 
+def pairs_needed(sd, target_halfwidth, lo=2, conf=0.95):
+    """The smallest n >= max(lo, 2) with t_{n-1} sd / sqrt(n) <= target_halfwidth: how many
+    independent pairs of standard deviation ``sd`` a 95 % t-interval of that half-width needs."""
+    lo = max(int(lo), 2)
+    if not (sd >= 0 and math.isfinite(sd)) or target_halfwidth <= 0:
+        raise ValueError(f"pairs_needed needs a finite sd >= 0 and a target > 0, not {sd!r}, {target_halfwidth!r}")
+    if sd == 0:
+        return lo
+    z = stats.norm.ppf(0.5 + conf / 2)
+    need = max(lo, int(math.ceil((z * sd / target_halfwidth) ** 2)))
+    while need > lo and _tq(conf, need - 2) * sd / math.sqrt(need - 1) <= target_halfwidth:
+        need -= 1
+    while _tq(conf, need - 1) * sd / math.sqrt(need) > target_halfwidth:
+        need += 1
+    return int(need)
+
+
 def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=MIN_PAIRS, max_n=None):
     """Where a paired comparison stands: has the t-interval reached the target half-width?
 
@@ -666,18 +683,7 @@ def sequential_status(diffs, target_halfwidth, conf=0.95, min_n=MIN_PAIRS, max_n
     sd = float(np.std(x, ddof=1))
     hw = _tq(conf, n - 1) * sd / math.sqrt(n)
     met = bool(n >= min_n and hw <= target_halfwidth)
-    # projection: smallest n' with t_{n'-1} sd / sqrt(n') <= target
-    lo = max(n, min_n, 2)
-    if sd == 0:
-        need = lo
-    else:
-        z = stats.norm.ppf(0.5 + conf / 2)
-        guess = max(lo, int(math.ceil((z * sd / target_halfwidth) ** 2)))
-        need = guess
-        while need > lo and _tq(conf, need - 2) * sd / math.sqrt(need - 1) <= target_halfwidth:
-            need -= 1
-        while _tq(conf, need - 1) * sd / math.sqrt(need) > target_halfwidth:
-            need += 1
+    need = pairs_needed(sd, target_halfwidth, max(n, min_n, 2), conf)
     return dict(n=n, mean=float(x.mean()), sd=sd, halfwidth=hw, met=met, n_needed=int(need),
                 more=int(max(need - n, 0)), capped=bool(max_n is not None and need > max_n), min_n=min_n)
 

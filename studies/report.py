@@ -108,6 +108,13 @@ def planned(specs):
         recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
         status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
         out.append(Planned(sp, recs, status))
+    # a question without an interval of its own yet: projected from a finished one that differs only
+    # in stiffness or run length (design.prior_projection), so that its budget can be judged
+    refs = [(sp, gi, st, recs) for sp, recs, status in out for gi, st in status.items()]
+    for sp, _, status in out:
+        for gi, st in status.items():
+            if st["n"] < 2:
+                st["prior"] = design.prior_projection(sp, gi, refs)
     return out
 
 
@@ -129,20 +136,32 @@ def programme_section(lines, plans):
         lines.append("| question | pairs | D_case/D_exact − 1 | 95 % half-width | target | state | projected pairs "
                      "| CPU-h to target |")
         lines.append("|---|---|---|---|---|---|---|---|")
+        prior_seen = False
         for gi, st in status.items():
             any_group = True
             g = sp["groups"][gi]
             mean = st["mean"]
             hw = st["halfwidth"]
             cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
+            need = "n/a" if st["n_needed"] is None else str(st["n_needed"])
+            prior = st.get("prior")
+            if prior is not None:
+                prior_seen = True
+                need = f"{prior['n_needed']} (prior)"
+                if prior["cpu_hours_to_target"] is not None:
+                    cost = f"{prior['cpu_hours_to_target']:.1f} (prior)"
             lines.append(f"| {design.shape_label(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
                          f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
-                         f"{st['n_needed'] if st['n_needed'] is not None else 'n/a'} | {cost} |")
+                         f"{need} | {cost} |")
         lines.append("")
         lines.append("Projected pairs: the 95 % half-width's target at the spread so far, never fewer than the "
                      f"design's minimum of {MIN_PAIRS} pairs (a smaller pilot sample undercovers). CPU-h to target: the runs "
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
-                     "step; a run another question already made (a seed's exact run) costs nothing.")
+                     "step; a run another question already made (a seed's exact run) costs nothing."
+                     + (" (prior): a question with fewer than 2 pairs, projected from the finished question "
+                        "that differs from it only in stiffness or run length (its spread scaled as 1/sqrt of "
+                        "the analysed length, its run cost as length × sqrt(E) / dt factor, an upper bound: the recording's "
+                        "share of a run's cost does not grow with E; `studies.design.prior_projection`)." if prior_seen else ""))
         lines.append("")
     if not any_group:
         lines += ["No sequential study has finished pairs yet.", ""]
@@ -193,7 +212,8 @@ def _answer(sp, g, st, cpu):
         of = "" if budget is None else f" of its {budget:g} budgeted"
         begun = "not started" if cpu == 0 else f"the spec has spent {cpu:.1f}{of} CPU-hours"
         return (f"* **{what}:** {n} seed pair(s) so far, no interval yet (target ±{100 * st['target']:.2f} %); "
-                f"{begun}" + (f" ({budget:g} CPU-hours budgeted)" if cpu == 0 and budget is not None else "") + ".")
+                f"{begun}" + (f" ({budget:g} CPU-hours budgeted)" if cpu == 0 and budget is not None else "") + "."
+                + _prior_words(st.get("prior"), st["target"]))
     lo, hi = mean - hw, mean + hw
     text = (f"* **{what}:** D_case/D_exact − 1 = {pct(mean)}, 95 % CI {interval(lo, hi)} over {n} seed pairs: "
             f"{verdict(lo, hi)}.")
@@ -216,6 +236,23 @@ def _answer(sp, g, st, cpu):
             text += f", {_cpu_hours_more(st['cpu_hours_to_target'])} for the runs not made yet"
         text += f" (state: {st['state']})."
     return text
+
+
+def _prior_words(prior, target):
+    """The sentence of a question without an interval yet: what its target would take, projected
+    from a finished question at another stiffness or run length; "" without one."""
+    if prior is None:
+        return ""
+    text = (f" Projected from `{prior['ref']}` ({prior['ref_pairs']} pairs at E = {prior['ref_youngs_modulus']:.0e} Pa, "
+            f"{prior['ref_t_end']:g} s runs; spread scaled to this run length, {100 * prior['sd']:.2f} % a pair): "
+            f"±{100 * target:.2f} % needs about {prior['n_needed']} pairs")
+    if prior["cpu_hours_to_target"] is not None:
+        text += (f", at most about {prior['cpu_hours_to_target']:.0f} CPU-hours ({prior['cpu_hours_per_pair']:.2f} a pair, "
+                 "the run cost scaled with the number of steps)")
+    if prior["max_seeds"] is not None and prior["n_needed"] > prior["max_seeds"]:
+        text += (f"; the group's max_seeds ({prior['max_seeds']}) would stop it at about "
+                 f"±{100 * prior['halfwidth_at_max']:.2f} %")
+    return text + "."
 
 
 def _mass_scaling(sp, g, st):

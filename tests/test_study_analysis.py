@@ -108,7 +108,12 @@ def test_effects_table_pairs_by_seed(tmp_path, monkeypatch):
     assert list(t.columns) == list(effects.COLUMNS)
     assert len(rows) == 1 and rows[0]["case"] == "mass_only" and rows[0]["n_pairs"] == 8
     assert rows[0]["relative_ci_low"] <= -0.05 <= rows[0]["relative_ci_high"]
-    assert rows[0]["mass_error"] == pytest.approx(5 / 27, rel=1e-12)     # 32/27 - 1: the paper's dimer
+    # mass_only runs with the exact mass and the summed inertia: k^2 = I_sum / m_exact, the summed
+    # clump's k^2 (I_sum / m_sum) times m_sum / m_exact = 32/27 (the paper's dimer)
+    from studies import shapes as shp
+    assert rows[0]["mass_error"] == 0.0
+    k2_sum = shp.k2_error(sp["shapes"]["dimer"], sp["material"]["density"])
+    assert rows[0]["k2_error"] == pytest.approx((1 + k2_sum) * 32 / 27 - 1, rel=1e-12)
 
 
 def test_effects_table_one_pair_has_empty_bounds(tmp_path):
@@ -254,6 +259,53 @@ def test_sequential_design_adds_seeds_then_stops_at_max_seeds_or_budget(tmp_path
     sp3, rdir3 = _sequential(tmp_path / "c", noise_sd=0.3, max_seeds=12)
     extra3, status3 = design.plan(sp3, rdir3)
     assert extra3[0] == [] and status3[0]["state"] == "max_seeds reached"
+
+
+def test_prior_projection_of_a_question_at_another_stiffness_and_run_length(tmp_path):
+    from scipy import stats
+
+    from studies import report
+
+    sp, rdir = _sequential(tmp_path, noise_sd=0.3)          # the reference: 12 pairs at E = 1e7 Pa, 1000 s
+    _, status = design.plan(sp, rdir)
+    g = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 13)), "youngs_modulus": 1e9,
+         "target": {"case": "uncorrected", "halfwidth": 0.02, "batch": 2}, "max_seeds": 40}
+    sp_t = spec_for(tmp_path / "t", [g])
+    sp_t["run"] = dict(sp_t["run"], t_end=400.0)
+    _, status_t = design.plan(sp_t, engine.results_dir(sp_t))
+    assert status_t[0]["n"] == 0
+    refs = [(sp, 0, status[0], design.load_records(sp, rdir)), (sp_t, 0, status_t[0], {})]
+    pr = design.prior_projection(sp_t, 0, refs)
+    sd = status[0]["sd"] * math.sqrt(1000.0 / 400.0)          # t_eq = 0: the whole run is analysed
+    assert pr["ref"] == sp["study"]["name"] and pr["ref_pairs"] == 12 and pr["sd"] == pytest.approx(sd, rel=1e-12)
+    n = 12
+    while stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n) > 0.02:
+        n += 1
+    assert pr["n_needed"] == n and n > 40
+    assert pr["halfwidth_at_max"] == pytest.approx(stats.t.ppf(0.975, 39) * sd / math.sqrt(40), rel=1e-9)
+    # a reference pair: 2 runs x 600 s at dt factor 0.5, like the target's seeds; x 0.4 (length) x 10 (sqrt E)
+    assert pr["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600 * 0.4 * 10, rel=1e-12)
+    assert pr["cpu_hours_to_target"] == pytest.approx(n * pr["cpu_hours_per_pair"], rel=1e-12)
+    words = report._prior_words(pr, 0.02)
+    assert f"needs about {n} pairs" in words and "max_seeds (40)" in words
+    # no reference for another shape, or another case
+    sp_ov = spec_for(tmp_path / "u", [g])
+    sp_ov["shapes"] = {"dimer": dict(sp_ov["shapes"]["dimer"], overlap=0.25)}
+    assert design.prior_projection(sp_ov, 0, refs) is None
+    g_mo = dict(g, cases=["exact", "mass_only"], target=dict(g["target"], case="mass_only"))
+    assert design.prior_projection(spec_for(tmp_path / "v", [g_mo]), 0, refs) is None
+
+
+def test_pairs_needed_is_the_smallest_sample_whose_t_interval_meets_the_target():
+    from scipy import stats
+
+    for sd, target, lo in [(0.03, 0.01, 12), (0.002, 0.01, 12), (0.05, 0.004, 2), (0.0, 0.01, 5)]:
+        n = est.pairs_needed(sd, target, lo)
+        hw = lambda k: stats.t.ppf(0.975, k - 1) * sd / math.sqrt(k)     # noqa: E731
+        assert n >= max(lo, 2) and hw(n) <= target
+        assert n == max(lo, 2) or hw(n - 1) > target
+    with pytest.raises(ValueError, match="finite sd"):
+        est.pairs_needed(float("nan"), 0.01)
 
 
 def test_same_spin_report_divides_out_the_thermal_speed_drift(tmp_path):
