@@ -154,7 +154,7 @@ def test_ols_msd_is_the_least_squares_slope_over_6():
     msd = 90.0 * lag + 50 * np.sin(lag / 7) + rng.normal(0, 20, lag.size)
     for lo, hi in [(60, 100), (125, 175), (5, 9)]:
         assert E.ols_msd(lag, msd, lo, hi) == pytest.approx(fit_d(lag, msd, lo, hi), rel=1e-10)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="has 0 lags"):
         E.ols_msd(lag, msd, 300, 400)
 
 
@@ -347,11 +347,22 @@ def test_fieller_from_means_agrees_with_samples_and_refuses_bad_input():
     a, b = rng.normal(2.0, 0.1, 7), rng.normal(3.0, 0.2, 9)
     assert E.fieller_from_means(a.mean(), a.var(ddof=1) / 7, 6, b.mean(), b.var(ddof=1) / 9, 8) == \
         pytest.approx(E.fieller_ratio(a, b)[:4], rel=1e-14)
-    with pytest.raises(ValueError):
+    # the bounds are the roots of Fieller's quadratic (ma - theta mb)^2 = t^2 (va + theta^2 vb), with
+    # Welch-Satterthwaite's dof at theta-hat, computed here from scipy's t quantile
+    from scipy import stats
+    ma, va, mb, vb = a.mean(), a.var(ddof=1) / 7, b.mean(), b.var(ddof=1) / 9
+    th, lo, hi, dof = E.fieller_from_means(ma, va, 6, mb, vb, 8)
+    r = ma / mb
+    assert dof == pytest.approx((va + r * r * vb) ** 2 / (va * va / 6 + (r * r * vb) ** 2 / 8), rel=1e-12)
+    q = stats.t.ppf(0.975, dof)
+    for x in (lo, hi):
+        assert (ma - x * mb) ** 2 == pytest.approx(q * q * (va + x * x * vb), rel=1e-10)
+    assert th == pytest.approx(r, rel=1e-15) and lo < th < hi
+    with pytest.raises(ValueError, match="need dof > 0"):
         E.fieller_from_means(1.0, 0.1, 0, 1.0, 0.1, 5)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="variances >= 0"):
         E.fieller_from_means(1.0, -0.1, 3, 1.0, 0.1, 5)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="need finite means"):
         E.fieller_from_means(float("nan"), 0.1, 3, 1.0, 0.1, 5)
     # no variance at all: the interval is the point, never NaN from round-off
     for ma, mb in [(0.3, 0.7), (1.0, 3.0), (2.0, 0.9), (1e-3, 7.0)]:
@@ -365,7 +376,7 @@ def test_fieller_ratio_is_unbounded_when_the_denominator_is_not_resolved():
     b = b - b.mean() + 0.005           # mean(b) well inside its noise
     th, lo, hi, *_ = E.fieller_ratio(a, b)
     assert np.isfinite(th) and np.isnan(lo) and np.isnan(hi)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="at least 2 values"):
         E.fieller_ratio([0.1], [0.2, 0.3])
 
 
@@ -404,7 +415,7 @@ def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
     assert s < 0.2 * unpaired                          # paired: the common noise cancels
     assert E.ratio_of_means(a, a) == (0.0, 0.0)
     for bad in ((a, b[:-1]), (a[:1], b[:1]), (np.r_[a[:-1], np.nan], b), (a, 0.0 * b)):
-        with pytest.raises(ValueError):
+        with pytest.raises(ValueError, match="a and b must be"):
             E.ratio_of_means(*bad)
 
 
@@ -417,5 +428,5 @@ def test_vacf_integral_is_the_trapezoid_of_an_exponential_to_its_last_lag():
     assert got == pytest.approx(exact, rel=2 * dt ** 2 / (12 * tau ** 2))
     assert got != pytest.approx(exact, rel=1e-7)                    # the trapezoid's own error is there
     assert E.vacf_integral(lag, a * np.exp(-lag / tau), dim=1) == pytest.approx(3 * got, rel=1e-14)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="must start at 0"):
         E.vacf_integral(lag[::-1], np.exp(-lag / tau))

@@ -145,7 +145,7 @@ def test_csv_with_and_without_header_and_scale(tmp_path):
     a, = read(tmp_path / "a.csv", scale=0.001)
     b, = read(tmp_path / "b.csv", scale=0.001)
     assert np.array_equal(a.centers, b.centers)
-    assert np.allclose(a.centers, TEN.centers, rtol=1e-15, atol=0) and np.allclose(a.radii, TEN.radii, rtol=1e-15)
+    assert np.allclose(a.centers, TEN.centers, rtol=1e-15, atol=0) and np.allclose(a.radii, TEN.radii, rtol=1e-15, atol=0)
     assert a.lines[0] == 2 and b.lines[0] == 2
 
 

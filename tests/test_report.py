@@ -85,6 +85,11 @@ def test_committed_sphere_gas_agrees_with_kinetic_theory():
     # the first version ran at dt factor 0.5: the step moves D by -6e-5 (kinetic.timestep_shift)
     assert row["dt"] == pytest.approx(3.558e-4, rel=1e-3)
     assert -1e-4 < row["dt_effect"] < -3e-5
+    # ... and it is the leapfrog collision map's shift for this row's own gas and step (wiring pinned)
+    from studies import kinetic as K
+    kn = K.hertz_kn(row["youngs_modulus"], row["poisson"], row["diameter"] / 2, row["diameter"] / 2)
+    assert row["dt_effect"] == pytest.approx(K.timestep_shift(row["kT"], row["mass"] / 2, row["diameter"], kn, row["dt"]),
+                                             rel=1e-9)
     committed = sphere_gas.read()
     assert committed and math.isclose(committed[0]["d_hertz_boltzmann"], row["d_hertz_boltzmann"], rel_tol=0.015)
 

@@ -236,7 +236,7 @@ def test_small_and_batch_paths_agree(seed):
         qe = np.array([qe[3], qe[0], qe[1], qe[2]])
         for q in (q1, qe):
             assert min(np.max(np.abs(q - q_batch[k])), np.max(np.abs(q + q_batch[k]))) <= 1e-15 * 4
-        assert np.allclose(cy._rotations(np.roll(q1, -1)[None])[0], V[k].T, atol=1e-15 * 4)
+        assert np.allclose(cy._rotations(np.roll(q1, -1)[None])[0], V[k].T, rtol=0, atol=1e-15 * 4)
 
 
 def test_small_and_batch_error_measures_agree():
