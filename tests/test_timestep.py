@@ -78,7 +78,7 @@ def test_head_on_dimers_exchange_velocities_with_second_order_energy_error(tmp_p
         assert np.allclose(v[:, :2], 0, atol=1e-12)              # stays on the line
         assert res[f]["q"][0] == pytest.approx(2.0, abs=2e-3)    # g' = -g
     e1, e05 = abs(res[1.0]["de_rel"][0]), abs(res[0.5]["de_rel"][0])
-    assert e1 < 2e-3 and e05 < e1 / 2.5                         # second order (ratio ~4)
+    assert e1 < 2e-3 and 3.5 < e1 / e05 < 6.0                   # second order: 4 (measured 4.97); first order 2
 
 
 def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
@@ -106,7 +106,7 @@ def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
         L0 = np.abs(np.asarray(inp["angvel"])).max() * 0.01
         errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
         assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
-    assert errs[1.0] < 1e-4 and errs[0.5] < errs[1.0] / 3         # second order
+    assert errs[1.0] < 1e-4 and 3.5 < errs[1.0] / errs[0.5] < 4.5   # second order: 4 (measured 4.01)
 
 
 def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_gas_check():
