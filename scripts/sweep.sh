@@ -16,7 +16,8 @@
 #                                         any queue that holds SPEC, first
 #   scripts/sweep.sh drain SPEC [DIR]     let DIR's sweep of SPEC finish the runs in flight, start no
 #                                         more, and end (nothing lost; any queue that holds SPEC
-#                                         ends first); then `wait`, `collect`
+#                                         ends first); then `wait`, `collect`.  BY=HH:MM: a deadline;
+#                                         until then only runs expected to finish by it start
 #   scripts/sweep.sh wait SPEC [DIR]      return when no sweep of SPEC runs in DIR
 #   scripts/sweep.sh queue SPEC [SPEC...] in the background: start each SPEC when the one before it
 #                                         ends (met its targets or spent its budget), so
@@ -25,7 +26,7 @@
 # SPEC: a spec name (studies/specs/SPEC.toml).  DIR: default ../sweep-SPEC beside this repository.
 # WORKERS (default 1): Dask workers of the sweep, one YADE run each.
 set -euo pipefail
-usage() { sed -n '9,26p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '9,27p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 [ $# -ge 2 ] || usage
 cmd=$1
 name=$(basename "$2" .toml)
@@ -138,8 +139,15 @@ case $cmd in
             sleep 0.1
         done
         if running; then
-            touch "$dir/$results/.drain"        # studies.engine.DRAIN: the driver checks it every few seconds
-            echo "[sweep] draining $name in $dir: the runs in flight finish, no new run starts (then: wait, collect)"
+            if [ -n "${BY:-}" ]; then           # a deadline: until then only runs expected to finish by it start
+                by=$(date -d "$BY" +%s) || { echo "[sweep] BY=$BY: not a time date(1) reads" >&2; exit 2; }
+                [ "$by" -gt "$(date +%s)" ] || { echo "[sweep] BY=$BY is past" >&2; exit 2; }
+                echo "$by" > "$dir/$results/.drain.tmp" && mv "$dir/$results/.drain.tmp" "$dir/$results/.drain"
+                echo "[sweep] draining $name in $dir by $(date -u -d "@$by" '+%H:%M UTC'): until then only runs expected to finish by it start; then as drain (then: wait, collect)"
+            else
+                touch "$dir/$results/.drain"    # studies.engine.DRAIN: the driver checks it every few seconds
+                echo "[sweep] draining $name in $dir: the runs in flight finish, no new run starts (then: wait, collect)"
+            fi
         else
             echo "[sweep] no sweep of $name running in $dir"
         fi ;;

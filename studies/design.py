@@ -204,17 +204,31 @@ def _cost_key(params):
     return json.dumps(q, sort_keys=True, default=str)
 
 
-def _run_cost(p, recs):
-    """Median CPU-hours of the finished runs of the case, protocol and time step of resolved run
-    parameters ``p`` (any seed).  Without a run at that time step, the runs at other factors, each
-    scaled by its factor over p's (the number of steps goes as 1/dt); None while there is none."""
+def _median_like(p, recs, value):
+    """Median of ``value(record)`` [s] over the finished runs of the case, protocol and time step of
+    resolved run parameters ``p`` (any seed).  Without a run at that time step, the runs at other
+    factors, each scaled by its factor over p's (the number of steps goes as 1/dt); None while there
+    is none."""
     key = _cost_key(p)
     same = [r for r in recs.values() if _cost_key(r["params"]) == key]
     f = p["run"]["dt_factor"]
-    cpu = [r.get("cpu_s", r["wall_s"]) for r in same if r["params"]["run"]["dt_factor"] == f]
-    if not cpu:
-        cpu = [r.get("cpu_s", r["wall_s"]) * r["params"]["run"]["dt_factor"] / f for r in same]
-    return float(np.median(cpu)) / 3600.0 if cpu else None
+    xs = [value(r) for r in same if r["params"]["run"]["dt_factor"] == f]
+    if not xs:
+        xs = [value(r) * r["params"]["run"]["dt_factor"] / f for r in same]
+    return float(np.median(xs)) if xs else None
+
+
+def _run_cost(p, recs):
+    """Median CPU-hours of the finished runs like ``p`` (:func:`_median_like`); None while there is none."""
+    c = _median_like(p, recs, lambda r: r.get("cpu_s", r["wall_s"]))
+    return None if c is None else c / 3600.0
+
+
+def expected_wall_s(p, recs):
+    """Expected wall time [s] of a run of resolved parameters ``p``: the median wall time of the
+    finished runs like it (:func:`_median_like`); None while there is none.  A deadline drain
+    (``studies.runner.may_start``) starts a run only if it fits."""
+    return _median_like(p, recs, lambda r: r["wall_s"])
 
 
 def pair_cost(spec, gi, seed, recs):

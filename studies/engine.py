@@ -153,7 +153,11 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 
     A file :data:`DRAIN` in the results directory (``scripts/sweep.sh drain``) drains the sweep: runs
     already started (a progress file under ``.progress``) finish and are recorded, queued ones are
-    cancelled and stay to do, and the driver ends.  A new driver removes a drain file it finds."""
+    cancelled and stay to do, and the driver ends.  A drain file holding a UNIX time (``BY=HH:MM
+    scripts/sweep.sh drain``) is a deadline: until then only runs expected to finish by it start
+    (:func:`studies.runner.may_start`, each run's expected wall time from the finished runs like it),
+    the others return untried and stay to do; at the deadline it drains as above.  A new driver
+    removes a drain file it finds."""
     from distributed import wait
 
     rdir = results_dir(spec)
@@ -170,6 +174,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     if os.path.exists(drain_path):                 # a drain asked of an earlier driver
         os.remove(drain_path)
     draining = False
+    deadline_seen = None
     commit, dirty = runner.git_state()
     if dirty and not allow_dirty:
         raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
@@ -202,7 +207,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
             if not todo:
                 break
-            if os.path.exists(drain_path):
+            if _drain_now(rdir):
                 draining = True
                 log(f"[study] draining ({DRAIN} found): {len(todo)} run(s) to do not submitted")
                 break
@@ -214,7 +219,10 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 
             def submit(batch):
                 nonlocal n_sub
+                from . import design
+                recs = design.load_records(spec, rdir)        # each run's expected wall time, for a deadline drain
                 for run in batch:
+                    run = dict(run, expected_wall_s=design.expected_wall_s(run["params"], recs))
                     f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
                                       pure=False, priority=_priority(run, schedule), retries=0)
                     futs[f] = run
@@ -228,7 +236,12 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             sim_done, last = 0.0, time.time()
             sequential = any(g.get("target") for g in spec["groups"])
             while pending:
-                if not draining and os.path.exists(drain_path):
+                deadline = runner.drain_deadline(rdir)
+                if deadline is not None and deadline > time.time() and deadline != deadline_seen:
+                    deadline_seen = deadline
+                    log(f"[study] drain by {time.strftime('%H:%M:%S UTC', time.gmtime(deadline))} ({DRAIN} found): "
+                        "only runs expected to finish by then start; the others stay to do")
+                if not draining and _drain_now(rdir):
                     draining = True
                     queued = {f for f in pending
                               if not f.done() and not os.path.exists(runner.progress_path(rdir, futs[f]["key"]))}
@@ -302,7 +315,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             if draining:
                 write_manifest(rdir, [rows[r["key"]] for r in runs])
                 break
-        if draining:
+        if draining or (deadline_seen is not None and n_cancel):
             log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
                 "`scripts/sweep.sh start` (or `python -m studies sweep`)")
         if n_sub:
@@ -319,6 +332,12 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 
 
 DRAIN = runner.DRAIN    # a file in the results directory: finish the runs in flight, start no more, end
+
+
+def _drain_now(rdir):
+    """True when the sweep must drain now: a drain file without a deadline, or one past its deadline."""
+    deadline = runner.drain_deadline(rdir)
+    return deadline is not None and deadline <= time.time()
 
 
 def _priority(run, schedule="in_order"):

@@ -113,6 +113,36 @@ def git_state():
 
 
 DRAIN = ".drain"    # a file in the results directory: the sweep drains (studies.engine.sweep)
+DRAIN_MARGIN = 1.15  # under a deadline drain a run starts only if 1.15 x its expected wall time fits
+
+
+def drain_deadline(results_dir):
+    """The drain asked of the sweep writing to ``results_dir`` (``scripts/sweep.sh drain``): None
+    (no drain file), 0.0 (drain now: an empty file), or the UNIX time [s] the file holds (``BY=HH:MM``):
+    the runs must end by then, and a run that cannot does not start.  An unreadable file drains now."""
+    try:
+        with open(os.path.join(results_dir, DRAIN)) as f:
+            text = f.read().strip()
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return 0.0
+    try:
+        return float(text) if text else 0.0
+    except ValueError:
+        return 0.0
+
+
+def may_start(run, results_dir, now=None):
+    """False when a drain forbids ``run`` to start: a drain now, or a deadline that the run's expected
+    wall time (``run["expected_wall_s"]`` [s], from the finished runs like it, times
+    :data:`DRAIN_MARGIN`) would overshoot.  A run of unknown length never fits a deadline."""
+    deadline = drain_deadline(results_dir)
+    if deadline is None:
+        return True
+    now = time.time() if now is None else now
+    expected = run.get("expected_wall_s")
+    return deadline > now and expected is not None and now + DRAIN_MARGIN * float(expected) <= deadline
 
 
 def progress_path(results_dir, run_key):
@@ -130,7 +160,7 @@ def _progress(path, **kw):
 
 def execute(run, settings):
     """Run one study run and write its reduced record; returns a small summary dict, or
-    ``{"drained": True}`` without running anything when the results directory holds :data:`DRAIN`.
+    ``{"drained": True}`` without running anything when a drain forbids it to start (:func:`may_start`).
 
     ``settings``: ``results_dir``, ``yade`` (see :func:`yade_command`), ``cuts`` (analysis window
     starts, s), ``max_lag`` (s), ``energy_tol``, ``momentum_tol``, ``progress_period`` (s),
@@ -148,7 +178,7 @@ def execute(run, settings):
     prog = progress_path(settings["results_dir"], run["key"])
     _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
               state="starting")
-    if os.path.exists(os.path.join(settings["results_dir"], DRAIN)):
+    if not may_start(run, settings["results_dir"]):
         _remove(prog)
         return {"drained": True}
     try:

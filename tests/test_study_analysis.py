@@ -657,6 +657,69 @@ def test_a_run_that_began_after_the_drain_returns_untried_and_a_sequential_group
     assert any(ln.startswith("[study] finished 1 runs") and "3 cancelled by the drain" in ln for ln in lines), lines
 
 
+def test_may_start_reads_the_drain_file_as_now_or_a_deadline(tmp_path):
+    rdir = str(tmp_path)
+    run = {"expected_wall_s": 600.0}
+    assert runner.drain_deadline(rdir) is None and runner.may_start(run, rdir)      # no drain
+    path = tmp_path / runner.DRAIN
+    path.write_text("")
+    assert runner.drain_deadline(rdir) == 0.0 and not runner.may_start(run, rdir)     # drain now
+    path.write_text("garbage")
+    assert runner.drain_deadline(rdir) == 0.0 and not runner.may_start(run, rdir)     # unreadable: now
+    now = 1.0e9
+    path.write_text(f"{now + 1000}\n")
+    assert runner.drain_deadline(rdir) == now + 1000
+    assert runner.may_start(run, rdir, now=now)                               # 1.15 x 600 = 690 s fits
+    assert not runner.may_start({"expected_wall_s": 900.0}, rdir, now=now)   # 1,035 s does not
+    assert not runner.may_start({"expected_wall_s": None}, rdir, now=now)    # unknown length never fits
+    assert not runner.may_start({}, rdir, now=now)
+    assert not runner.may_start(run, rdir, now=now + 1001)                    # past the deadline
+
+
+def test_driver_under_a_deadline_starts_only_runs_that_fit(tmp_path, monkeypatch):
+    """A deadline drain (BY=HH:MM scripts/sweep.sh drain) asked once the driver runs: runs whose
+    expected wall time (the median of the finished runs like them: 600 s for the synthetic records)
+    fits start and finish; runs of a case never run before (unknown length) stay to do, untried;
+    the driver ends and says it drained."""
+    import time as _time
+    from studies import engine as eng
+    g = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1]}
+    sp = spec_for(tmp_path, [g])
+    rdir = engine.results_dir(sp)
+    log_path = tmp_path / "ran.txt"
+    monkeypatch.setattr(runner, "execute", _drain_fake(log_path, lambda r: False))
+    engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None, progress_every=1.0)   # seed 1: known lengths
+    sp2 = spec_for(tmp_path, [dict(g, cases=["exact", "uncorrected", "mass_only"], seeds=[1, 2, 3])])
+    plan = eng._plan
+
+    def plan_then_deadline(spec, rdir_, log):
+        (Path(rdir_) / runner.DRAIN).write_text(f"{_time.time() + 750.0}")   # 690 s fits, once
+        return plan(spec, rdir_, log)
+
+    def fits_then_not(run, settings):      # the fake keeps runner.execute's protocol, with may_start
+        prog = runner.progress_path(settings["results_dir"], run["key"])
+        runner.write_atomic(prog, json.dumps({"t": 0.0, "t_end": 1.0, "steps_per_s": 0.0, "eta_s": None}))
+        try:
+            if not runner.may_start(run, settings["results_dir"]):
+                return {"drained": True}
+            return _fake_execute_logging_to(log_path)(run, settings)
+        finally:
+            os.remove(prog)
+    monkeypatch.setattr(eng, "_plan", plan_then_deadline)
+    monkeypatch.setattr(runner, "execute", fits_then_not)
+    lines = []
+    rows = engine.sweep(sp2, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    ran = [tuple(ln.split()) for ln in log_path.read_text().splitlines()]
+    assert sorted(ran[2:]) == [("2", "exact"), ("2", "uncorrected"), ("3", "exact"), ("3", "uncorrected")], ran
+    todo = sorted(r["name"].split("-")[1] for r in rows.values() if r["status"] == "todo")
+    assert todo == ["mass_only"] * 3, rows
+    man = engine.read_manifest(rdir)
+    assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo")
+    assert any(ln.startswith("[study] drain by") for ln in lines), lines
+    assert any(ln.startswith("[study] drained") for ln in lines), lines
+    assert any("3 cancelled by the drain" in ln for ln in lines), lines
+
+
 def test_execute_marks_the_run_started_first_and_never_starts_yade_during_a_drain(tmp_path, monkeypatch):
     """runner.execute writes its progress file before anything else (a draining driver reads it as
     "in flight"), removes it if it fails before the work begins, and with a drain file present

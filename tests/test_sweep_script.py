@@ -179,6 +179,28 @@ def test_drain_asks_the_running_driver_and_ends_the_queue_first(repo, tmp_path, 
     assert f"UTC: {b}" not in log.read_text()                            # b never started
 
 
+def test_drain_by_a_deadline_writes_the_time_the_driver_reads(repo, tmp_path, names):
+    from studies import runner
+    a, _ = names
+    _spec(repo, a)
+    assert _sweep(repo, "refresh", a).returncode == 0
+    res = tmp_path / f"sweep-{a}" / "results" / a
+    env = dict(os.environ)
+    with open(res / ".driver.lock", "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)                     # a's driver "runs"
+        for bad, why in (("yesterday 10:00", "is past"), ("not a time", "not a time")):
+            p = subprocess.run(["bash", str(repo / "scripts" / "sweep.sh"), "drain", a], capture_output=True, text=True,
+                               env=dict(env, BY=bad))
+            assert p.returncode == 2 and why in p.stderr and not (res / ".drain").exists(), (p.stdout, p.stderr)
+        t0 = time.time()
+        p = subprocess.run(["bash", str(repo / "scripts" / "sweep.sh"), "drain", a], capture_output=True, text=True,
+                           env=dict(env, BY="+1 hour"))
+        assert p.returncode == 0 and "draining" in p.stdout and " by " in p.stdout, (p.stdout, p.stderr)
+        deadline = runner.drain_deadline(str(res))
+        assert t0 + 3600 - 5 <= deadline <= time.time() + 3600 + 5
+        assert not (res / ".drain.tmp").exists()
+
+
 def test_engine_names_the_drain_file_the_script_writes():
     from studies import engine
     assert f'$results/{engine.DRAIN}"' in (ROOT / "scripts" / "sweep.sh").read_text()
