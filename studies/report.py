@@ -621,6 +621,22 @@ def _measured(effect_rows, shape, e_mod, case, protocol):
     return None
 
 
+def _hard_times_k2(ee, k2_part):
+    """Equal energy: the hard-particle mass scaling times one plus the paired k² part, - 1.  At one kT
+    a Hertz gas with every mass scaled by lambda is the same gas in time scaled by lambda^1/2, so the
+    contact's softness drops out of the equal-energy ratio and what is left beside the mass scaling
+    is the collisions' k² effect (the paired uncorrected - mass_scaled)."""
+    return (1.0 + ee["hard_particles"]) * (1.0 + k2_part) - 1.0
+
+
+def _equal_energy_words(ee, k2_part):
+    if ee is None or k2_part is None:
+        return ""
+    return (f" At equal energy {pct(ee['relative'])} ± {100 * 1.96 * ee['se']:.2f} %: the hard-particle mass scaling "
+            f"{pct(ee['hard_particles'])} times one plus the k² part, {pct(_hard_times_k2(ee, k2_part))} (at one kT the "
+            "softness drops out: every mass scaled by lambda is the same Hertz gas in time scaled by lambda^1/2).")
+
+
 def collision_map_answers(maps):
     """Bullets: for each dimer map, what the collision integral predicts for the paired protocol, split
     into the softness of the heavier mass (``mass_scaled``) and the rest (k^2)."""
@@ -641,7 +657,7 @@ def collision_map_answers(maps):
             f"paired, {pct(u['relative'])} ± {100 * 1.96 * u['se']:.2f} %. Of it, the heavier mass at the same "
             f"velocities (every mass and moment scaled, k² exact: nothing a hard particle could notice) "
             f"{pct(sc['relative'])} ± {100 * 1.96 * sc['se']:.2f} %, and the wrong k² the rest, "
-            f"{pct(k2)} ± {100 * 1.96 * k2_se:.2f} %.")
+            f"{pct(k2)} ± {100 * 1.96 * k2_se:.2f} %." + _equal_energy_words(rows.get(("uncorrected", "equal_energy")), k2))
     soft = [(m["material"]["youngs_modulus"], r) for m in paper for r in m["rows"]
             if r["case"] == "mass_scaled" and r["protocol"] == "paired"]
     if len(soft) > 1:
@@ -669,7 +685,9 @@ def collision_map_answers(maps):
             f"E = {m['material']['youngs_modulus']:.0e} Pa** ({m['pairs_used']} collisions per case; `{m['file']}`; "
             f"summed mass {pct(u['mass_error'], 1)}, largest moment over mass {pct(u['iperp_over_m_error'], 1)}): uncorrected vs "
             f"exact, paired, {pct(u['relative'])} ± {100 * 1.96 * u['se']:.2f} %{soft_txt}; equal energy "
-            f"{pct(ee['relative'])} ± {100 * 1.96 * ee['se']:.2f} % (hard particles {pct(ee['hard_particles'])}).")
+            f"{pct(ee['relative'])} ± {100 * 1.96 * ee['se']:.2f} % (hard particles {pct(ee['hard_particles'])}"
+            + (f"; times one plus the paired k² part: {pct(_hard_times_k2(ee, u['minus_mass_scaled']))}"
+               if u.get("minus_mass_scaled") is not None else "") + ").")
     return out
 
 
@@ -683,7 +701,7 @@ def collision_map_section(lines, maps, effect_rows):
     if not maps:
         lines += ["No collision maps committed.", ""]
         return
-    lines += ["| shape | D/d_s | E (Pa) | case | protocol | mass error | I_perp/m error | predicted | hard particles | measured (gas) |",
+    lines += ["| shape | D/d_s | E (Pa) | case | protocol | mass error | I_max/m error | predicted | hard particles | measured (gas) |",
               "|---|---|---|---|---|---|---|---|---|---|"]
     for m in maps:
         sh, e_mod = m["shape"], m["material"]["youngs_modulus"]

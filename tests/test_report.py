@@ -163,6 +163,9 @@ def test_collision_map_predictions_come_from_their_files(results_copy):
     assert "uncorrected vs exact, paired, +1.23 % ± 0.20 %" in text
     assert "+0.78 % ± 0.10 %, and the wrong k² the rest, +0.45 % ± 0.16 %" in text
     assert "+0.78 % ± 0.10 % at E = 1e+07 Pa, +0.08 % ± 0.10 % at E = 1e+09 Pa" in text
+    # equal energy: softness drops out at one kT, so hard particles x (1 + k² part): 0.9186 x 1.0045 - 1
+    assert ("At equal energy -8.01 % ± 0.39 %: the hard-particle mass scaling -8.14 % times one plus the k² part, "
+            "-7.73 %") in text
     assert "| dimer | 0.5 | 1e+07 | uncorrected | equal_energy | +18.5 % | -11.9 % | -8.01 % ± 0.39 % | -8.14 % |" in text
     # another shape: its own bullet (paired and equal energy), never labelled as the paper's dimer
     tet = [dict(r, relative=r["relative"] * 2, mass_error=0.5) for r in rows if r["case"] != "mass_scaled"]
@@ -172,7 +175,8 @@ def test_collision_map_predictions_come_from_their_files(results_copy):
     text = report.build()
     assert ("**Collision-map prediction, tetrahedron (D/d_s = 0.5), E = 1e+07 Pa** (99 collisions per case; "
             "`tet.json`; summed mass +50.0 %, largest moment over mass -11.9 %): uncorrected vs exact, paired, "
-            "+2.46 % ± 0.20 %; equal energy -16.02 % ± 0.39 % (hard particles -8.14 %).") in text
+            "+2.46 % ± 0.20 %; equal energy -16.02 % ± 0.39 % (hard particles -8.14 %; times one plus the paired "
+            "k² part: -7.73 %).") in text
     assert text.count("Collision-map prediction, the paper's dimer") == 2
 
 
