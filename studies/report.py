@@ -536,7 +536,8 @@ def plain_words(effect_rows, maps, share):
                     f"({big[0]}, D/d_s = {big[1]}, E = {big[2]:.0e} Pa); in every map its size is below "
                     f"{100 * top:.2f} % of D at 95 %"
                     + (": no shape shows an inertia effect as large as 1 % of D." if top < 0.01 else ".")
-                    + " At the same energy the mass error acts through the thermal speed, sqrt(m_exact/m_summed).")
+                    + " At the same energy the mass error acts through the thermal speed, sqrt(m_exact/m_summed)"
+                    + _equal_energy_factorised(maps) + ".")
     gas = [(label, e) for label, e in (("mass corrected alone (mass_only: exact m, summed I)",
                                          _effect_row(effect_rows, "paired", case="mass_only")),
                                         ("inertia corrected alone (inertia_only: summed m, exact I)",
@@ -627,6 +628,23 @@ def _hard_times_k2(ee, k2_part):
     contact's softness drops out of the equal-energy ratio and what is left beside the mass scaling
     is the collisions' k² effect (the paired uncorrected - mass_scaled)."""
     return (1.0 + ee["hard_particles"]) * (1.0 + k2_part) - 1.0
+
+
+def _equal_energy_factorised(maps):
+    """", and the softness drops out: ..." for the plain words, from every map with both an
+    equal-energy row and a paired k² part; "" without one."""
+    gaps = []
+    for m in maps:
+        rows = _map_rows(m)
+        u, ee = rows.get(("uncorrected", "paired")), rows.get(("uncorrected", "equal_energy"))
+        if u and ee and u.get("minus_mass_scaled") is not None:
+            gaps.append(abs(ee["relative"] - _hard_times_k2(ee, u["minus_mass_scaled"])))
+    if not gaps:
+        return ""
+    return (f"; the contact's softness drops out there (at one kT every mass scaled alike is the same Hertz gas in "
+            f"rescaled time), and what is left beside the mass scaling is the k² part: in all {len(gaps)} collision maps "
+            f"the equal-energy ratio is the hard-particle scaling times one plus the paired k² part to "
+            f"{100 * max(gaps):.2f} % of D")
 
 
 def _equal_energy_words(ee, k2_part):
