@@ -131,6 +131,10 @@ case $cmd in
         end_queues
         pkill -f "studies sweep $specfile" && echo "[sweep] stopped $name" || echo "[sweep] no sweep of $name running" ;;
     drain)
+        if [ -n "${BY:-}" ]; then               # checked before anything is ended
+            by=$(date -d "$BY" +%s 2>/dev/null) || { echo "[sweep] BY=$BY: not a time date -d reads (e.g. 20:05, \"+40 min\")" >&2; exit 2; }
+            [ "$by" -gt "$(date +%s)" ] || { echo "[sweep] BY=$BY is past (a bare HH:MM is today's)" >&2; exit 2; }
+        fi
         end_queues
         # a driver the queue has just launched may not hold its lock yet: give it the time start gives it
         for _ in $(seq 600); do
@@ -140,12 +144,10 @@ case $cmd in
         done
         if running; then
             if [ -n "${BY:-}" ]; then           # a deadline: until then only runs expected to finish by it start
-                by=$(date -d "$BY" +%s) || { echo "[sweep] BY=$BY: not a time date(1) reads" >&2; exit 2; }
-                [ "$by" -gt "$(date +%s)" ] || { echo "[sweep] BY=$BY is past" >&2; exit 2; }
                 echo "$by" > "$dir/$results/.drain.tmp" && mv "$dir/$results/.drain.tmp" "$dir/$results/.drain"
                 echo "[sweep] draining $name in $dir by $(date -u -d "@$by" '+%H:%M UTC'): until then only runs expected to finish by it start; then as drain (then: wait, collect)"
             else
-                touch "$dir/$results/.drain"    # studies.engine.DRAIN: the driver checks it every few seconds
+                : > "$dir/$results/.drain"      # studies.engine.DRAIN, empty: now (also over an earlier BY=)
                 echo "[sweep] draining $name in $dir: the runs in flight finish, no new run starts (then: wait, collect)"
             fi
         else

@@ -60,9 +60,11 @@ def main(argv=None):
         prepare.write(spec, a.out or "runs_prepared")
         return 0
     if a.command in ("run", "sweep"):
-        engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
-                     allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
-        if a.command == "run" and os.path.exists(os.path.join(engine.results_dir(spec), engine.DRAIN)):
+        rows = engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
+                            allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
+        # drained with runs left to do (a deadline drain that refused nothing leaves none)
+        if (a.command == "run" and os.path.exists(os.path.join(engine.results_dir(spec), engine.DRAIN))
+                and any(r["status"] == "todo" for r in rows.values())):
             print(f"[run] the sweep was drained ({engine.DRAIN} in the results directory): runs remain to do, "
                   "so no analysis; run again to resume", file=sys.stderr)
             return 1

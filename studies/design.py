@@ -224,6 +224,24 @@ def _run_cost(p, recs):
     return None if c is None else c / 3600.0
 
 
+def expected_wall_s_in(rdir, p):
+    """:func:`expected_wall_s` from every record under ``rdir``/runs (what a worker sees when a run
+    is about to start; no spec needed).  Unreadable files are skipped."""
+    import glob
+    import os
+
+    recs = {}
+    for path in glob.glob(os.path.join(rdir, "runs", "*.json")):
+        try:
+            with open(path) as f:
+                rec = json.load(f)
+        except (OSError, ValueError):
+            continue
+        if isinstance(rec, dict) and "params" in rec and "wall_s" in rec:
+            recs[path] = rec
+    return expected_wall_s(p, recs)
+
+
 def expected_wall_s(p, recs):
     """Expected wall time [s] of a run of resolved parameters ``p``: the median wall time of the
     finished runs like it (:func:`_median_like`); None while there is none.  A deadline drain
@@ -319,7 +337,9 @@ def prior_projection(spec, gi, refs):
     if best is None:
         return None
     rsp, rgi, rst, rrecs, rp = best
-    runs = [r for r in _sequential_runs(rsp, rgi, rsp["groups"][rgi]["seeds"]) if r["key"] in rrecs]
+    rg = rsp["groups"][rgi]
+    seeds = list(rg["seeds"]) + possible_extra_seeds(rsp).get(rgi, [])     # listed and added by the design
+    runs = [r for r in _sequential_runs(rsp, rgi, seeds) if r["key"] in rrecs]
     cuts = [analysis_cut(rrecs[r["key"]], rsp["analysis"]["t_eq"])[0] for r in runs]
     cut = float(np.mean(cuts)) if cuts else 0.0
     t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
@@ -328,11 +348,11 @@ def prior_projection(spec, gi, refs):
     sd = rst["sd"] * np.sqrt((t_ref - cut) / (t - cut))
     need = est.pairs_needed(sd, tgt["halfwidth"], est.MIN_PAIRS)
     max_n = g.get("max_seeds")
-    hw_max = None if max_n is None else float(est._tq(0.95, max_n - 1) * sd / np.sqrt(max_n))
+    hw_max = None if max_n is None or max_n < 2 else float(est._tq(0.95, max_n - 1) * sd / np.sqrt(max_n))
     e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
-    ref_seed = max([int(r["seed"]) for r in runs], default=rsp["groups"][rgi]["seeds"][0]) + 1
+    ref_seed = max([int(r["seed"]) for r in runs] + list(rg["seeds"])) + 1     # the design's next seed
     ref_pair = pair_cost(rsp, rgi, ref_seed, rrecs)      # a new pair of the reference, at its time step
-    ref_f = S.resolve_run(rsp, rsp["groups"][rgi], tgt["case"], ref_seed)["run"]["dt_factor"]
+    ref_f = S.resolve_run(rsp, rg, tgt["case"], ref_seed)["run"]["dt_factor"]
     per = None if ref_pair is None else float(ref_pair * (t / t_ref) * np.sqrt(e / e_ref)
                                                * ref_f / p["run"]["dt_factor"])
     return {"ref": rsp["study"]["name"], "ref_pairs": int(rst["n"]), "ref_youngs_modulus": e_ref,

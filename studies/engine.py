@@ -155,9 +155,10 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     already started (a progress file under ``.progress``) finish and are recorded, queued ones are
     cancelled and stay to do, and the driver ends.  A drain file holding a UNIX time (``BY=HH:MM
     scripts/sweep.sh drain``) is a deadline: until then only runs expected to finish by it start
-    (:func:`studies.runner.may_start`, each run's expected wall time from the finished runs like it),
-    the others return untried and stay to do; at the deadline it drains as above.  A new driver
-    removes a drain file it finds."""
+    (:func:`studies.runner.may_start`, each run's expected wall time from the finished runs like it
+    when it is about to start), the others return untried and stay to do (for the next driver); at
+    the deadline it drains as above.  A new driver removes a drain file written before it took its
+    lock."""
     from distributed import wait
 
     rdir = results_dir(spec)
@@ -167,12 +168,17 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         raise SystemExit(f"[study] another driver is running on {rdir}")
+    t_locked = time.time()
     # progress files left by a driver that was killed: no run of this study is in flight while we
     # hold the lock, so they would only show as phantom running runs
     shutil.rmtree(os.path.join(rdir, ".progress"), ignore_errors=True)
     drain_path = os.path.join(rdir, DRAIN)
-    if os.path.exists(drain_path):                 # a drain asked of an earlier driver
-        os.remove(drain_path)
+    try:    # a drain asked of an earlier driver; one asked of this driver since it took its lock stays
+        # (0.1 s of margin: a file system stamps times from a coarse clock)
+        if os.path.getmtime(drain_path) < t_locked - 0.1:
+            os.remove(drain_path)
+    except FileNotFoundError:
+        pass
     draining = False
     deadline_seen = None
     commit, dirty = runner.git_state()
@@ -219,10 +225,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 
             def submit(batch):
                 nonlocal n_sub
-                from . import design
-                recs = design.load_records(spec, rdir)        # each run's expected wall time, for a deadline drain
                 for run in batch:
-                    run = dict(run, expected_wall_s=design.expected_wall_s(run["params"], recs))
                     f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
                                       pure=False, priority=_priority(run, schedule), retries=0)
                     futs[f] = run
@@ -315,7 +318,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             if draining:
                 write_manifest(rdir, [rows[r["key"]] for r in runs])
                 break
-        if draining or (deadline_seen is not None and n_cancel):
+        if draining or n_cancel:
             log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
                 "`scripts/sweep.sh start` (or `python -m studies sweep`)")
         if n_sub:

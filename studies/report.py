@@ -108,7 +108,7 @@ def planned(specs):
         recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
         status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
         out.append(Planned(sp, recs, status))
-    # a question without an interval of its own yet: projected from a finished one that differs only
+    # a question without an interval of its own yet: projected from one with pairs that differs only
     # in stiffness or run length (design.prior_projection), so that its budget can be judged
     refs = [(sp, gi, st, recs) for sp, recs, status in out for gi, st in status.items()]
     for sp, _, status in out:
@@ -158,8 +158,8 @@ def programme_section(lines, plans):
                      f"design's minimum of {MIN_PAIRS} pairs (a smaller pilot sample undercovers). CPU-h to target: the runs "
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
                      "step; a run another question already made (a seed's exact run) costs nothing."
-                     + (" (prior): a question with fewer than 2 pairs, projected from the finished question "
-                        "that differs from it only in stiffness or run length (its spread scaled as 1/sqrt of "
+                     + (" (prior): a question with fewer than 2 pairs, projected from the question with the most "
+                        "pairs that differs from it only in stiffness or run length (its spread scaled as 1/sqrt of "
                         "the analysed length, its run cost as length × sqrt(E) / dt factor, an upper bound: the recording's "
                         "share of a run's cost does not grow with E; `studies.design.prior_projection`)." if prior_seen else ""))
         lines.append("")
@@ -642,8 +642,8 @@ def _equal_energy_factorised(maps):
     if not gaps:
         return ""
     return (f"; the contact's softness drops out there (at one kT every mass scaled alike is the same Hertz gas in "
-            f"rescaled time), and what is left beside the mass scaling is the k² part: in all {len(gaps)} collision maps "
-            f"the equal-energy ratio is the hard-particle scaling times one plus the paired k² part to "
+            f"rescaled time), and what is left beside the mass scaling is the k² part: in each of the {len(gaps)} "
+            f"collision maps with an equal-energy row the equal-energy ratio is the hard-particle scaling times one plus the paired k² part to "
             f"{100 * max(gaps):.2f} % of D")
 
 

@@ -135,14 +135,21 @@ def drain_deadline(results_dir):
 
 def may_start(run, results_dir, now=None):
     """False when a drain forbids ``run`` to start: a drain now, or a deadline that the run's expected
-    wall time (``run["expected_wall_s"]`` [s], from the finished runs like it, times
-    :data:`DRAIN_MARGIN`) would overshoot.  A run of unknown length never fits a deadline."""
+    wall time times :data:`DRAIN_MARGIN` would overshoot.  The expected wall time [s] is
+    ``run["expected_wall_s"]`` if given, else the median of the records under ``results_dir``
+    finished by now of runs like it (:func:`studies.design.expected_wall_s_in`).  A run of unknown
+    length never fits a deadline."""
     deadline = drain_deadline(results_dir)
     if deadline is None:
         return True
     now = time.time() if now is None else now
+    if deadline <= now:
+        return False
     expected = run.get("expected_wall_s")
-    return deadline > now and expected is not None and now + DRAIN_MARGIN * float(expected) <= deadline
+    if expected is None and "params" in run:      # from the records finished by now, not at queueing
+        from .design import expected_wall_s_in
+        expected = expected_wall_s_in(results_dir, run["params"])
+    return expected is not None and now + DRAIN_MARGIN * float(expected) <= deadline
 
 
 def progress_path(results_dir, run_key):

@@ -676,6 +676,65 @@ def test_may_start_reads_the_drain_file_as_now_or_a_deadline(tmp_path):
     assert not runner.may_start(run, rdir, now=now + 1001)                    # past the deadline
 
 
+def test_a_new_driver_removes_an_old_drain_file_and_keeps_one_asked_after_its_lock(tmp_path, monkeypatch):
+    import time as _time
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1]}])
+    rdir = engine.results_dir(sp)
+    os.makedirs(rdir, exist_ok=True)
+    log_path = tmp_path / "ran.txt"
+    monkeypatch.setattr(runner, "execute", _drain_fake(log_path, lambda r: False))
+    drain = Path(rdir) / runner.DRAIN
+    drain.write_text("")
+    os.utime(drain, (_time.time() + 30, _time.time() + 30))       # stamped after the driver's lock
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lines.append, progress_every=1.0)
+    assert not log_path.exists() and all(r["status"] == "todo" for r in rows.values())
+    assert any("2 run(s) to do not submitted" in ln for ln in lines), lines
+    os.utime(drain, (_time.time() - 60, _time.time() - 60))       # a drain asked of an earlier driver
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None, progress_every=1.0)
+    assert all(r["status"] == "done" for r in rows.values()) and not drain.exists()
+
+
+def test_studies_run_skips_the_analysis_only_when_a_drain_left_runs_to_do(tmp_path, monkeypatch):
+    from studies import __main__ as cli
+    from studies import analysis
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}])
+    rdir = engine.results_dir(sp)
+    os.makedirs(rdir, exist_ok=True)
+    analysed = []
+    monkeypatch.setattr(S, "load", lambda path: sp)
+    monkeypatch.setattr(analysis, "single_gas_problem", lambda spec: None)
+    monkeypatch.setattr(analysis, "analyze", lambda spec: analysed.append(1))
+    from studies import gas_plots
+    monkeypatch.setattr(gas_plots, "plot_all", lambda rdir_: None)
+    (Path(rdir) / runner.DRAIN).write_text("")
+    for status, code, n in (("todo", 1, 0), ("done", 0, 1)):
+        monkeypatch.setattr(engine, "sweep", lambda spec, **kw: {"k": {"status": status}})
+        assert cli.main(["run", "synthetic"]) == code and len(analysed) == n
+
+
+def test_may_start_estimates_a_run_from_the_records_finished_by_then(tmp_path):
+    """Without a given estimate, a run's expected wall time is the median of the records on disk of
+    runs like it when it is about to start (not when it was queued); another case's do not count."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3]}])
+    rdir = engine.results_dir(sp)
+    runs = S.runs(sp)
+    later = [r for r in runs if r["seed"] == 3]
+    rng = np.random.default_rng(2)
+    os.makedirs(os.path.join(rdir, "runs"), exist_ok=True)
+    (Path(rdir) / runner.DRAIN).write_text(f"{1.0e9 + 1000}")
+    assert not any(runner.may_start(r, rdir, now=1.0e9) for r in later)        # nothing finished yet
+    for r, wall in zip([r for r in runs if r["seed"] < 3], (500.0, 900.0, 500.0, 900.0)):
+        fr, v0 = frames_of(rng, 12, 60.0, 0.5)
+        write_record(rdir, r, fr, v0, [0.0], 20.0, wall_s=wall)
+    by_case = {r["case"]: r for r in later}
+    # seeds 1, 2: exact 500 and 500 s, uncorrected 900 and 900 s (zip order: exact, uncorrected per seed)
+    walls = {c: design.expected_wall_s_in(rdir, by_case[c]["params"]) for c in by_case}
+    assert walls == {"exact": 500.0, "uncorrected": 900.0}, walls
+    assert runner.may_start(by_case["exact"], rdir, now=1.0e9)                  # 575 s fits in 1,000
+    assert not runner.may_start(by_case["uncorrected"], rdir, now=1.0e9)        # 1,035 s does not
+
+
 def test_driver_under_a_deadline_starts_only_runs_that_fit(tmp_path, monkeypatch):
     """A deadline drain (BY=HH:MM scripts/sweep.sh drain) asked once the driver runs: runs whose
     expected wall time (the median of the finished runs like them: 600 s for the synthetic records)

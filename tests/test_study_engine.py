@@ -96,6 +96,8 @@ def test_energy_and_momentum_conserved(small_gas, key):
     # the translational energy the drift is made of is the bodies' own, with the case's mass
     m = rec["case_body"]["mass"]
     np.testing.assert_allclose(0.5 * m * np.sum(z["vel"].astype(np.float64) ** 2, axis=(1, 2)), z["e_trans"], rtol=1e-6)
+    etot = z["e_trans"] + z["e_rot"] + z["e_elastic"]          # ... and the drift is of those energies
+    assert np.max(np.abs(etot / etot[0] - 1)) == pytest.approx(c["energy_drift"], rel=1e-12)
     idx = np.searchsorted(z["t"], e["t"] - 1e-9)
     np.testing.assert_allclose(z["t"][idx], e["t"], rtol=1e-9)                # the record's 1 s series
     np.testing.assert_allclose(e["e_trans"], z["e_trans"][idx], rtol=1e-9)

@@ -199,6 +199,8 @@ def test_drain_by_a_deadline_writes_the_time_the_driver_reads(repo, tmp_path, na
         deadline = runner.drain_deadline(str(res))
         assert t0 + 3600 - 5 <= deadline <= time.time() + 3600 + 5
         assert not (res / ".drain.tmp").exists()
+        p = _sweep(repo, "drain", a)                          # a plain drain over it: now, not the deadline
+        assert p.returncode == 0 and runner.drain_deadline(str(res)) == 0.0, (p.stdout, p.stderr)
 
 
 def test_engine_names_the_drain_file_the_script_writes():
