@@ -435,8 +435,11 @@ STATE_CLASS = textwrap.dedent(
     O.bodies.appendClumped([utils.sphere((0, 0, z), 0.1, material="cpm") for z in (0, 0.1)] + [corr])
     O.engines = [ForceResetter(), NewtonIntegrator(damping=0), CpmStateUpdater(realPeriod=0, iterPeriod=1)]
     O.dt = 1e-5
-    O.run(3, True)
-    print("ran")
+    try:
+        O.run(3, True)
+    except RuntimeError:
+        pass    # YADE rethrows the runner thread's error in wait(), unless the thread stopped first
+    print("iterations", O.iter)
     """
 )
 
@@ -447,7 +450,11 @@ def test_correction_state_class_negative_control(tmp_path):
     script = tmp_path / "state.py"
     script.write_text(STATE_CLASS)
     p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
-    assert "doesn't correspond to Body::state type State" in p.stdout + p.stderr and "ran" not in p.stdout, p.stderr[-1000:]
+    assert "doesn't correspond to Body::state type State" in p.stdout + p.stderr, p.stderr[-1000:]
+    # the scene stopped at the check, before its 3 steps (whether wait() rethrew the runner thread's
+    # error is a race in YADE: a CI run under load printed after O.run once)
+    its = [int(ln.split()[1]) for ln in p.stdout.splitlines() if ln.startswith("iterations ")]
+    assert its and its[0] < 3, p.stdout[-1000:]
 
 
 def test_mask_selected_engines(scene):
