@@ -394,7 +394,7 @@ def test_initial_decay_time_exact_on_an_exponential_and_unbiased_on_ou_walkers()
     est = np.array(est)
     se = est.std(ddof=1) / math.sqrt(len(est))
     assert abs(est.mean() - 37.6) < 3 * se, (est.mean(), se)
-    assert 0.002 < est.std(ddof=1) / 37.6 < 0.02
+    assert 0.003 < est.std(ddof=1) / 37.6 < 0.009     # 0.57 % at this seed; the gas records show ~0.5 %
     with pytest.raises(ValueError, match="fewer than 2 lags"):
         E.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6), t_fit=0.2)
 
