@@ -213,7 +213,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
             if not todo:
                 break
-            if _drain_now(rdir):
+            if _drain_now(runner.drain_deadline(rdir)):
                 draining = True
                 log(f"[study] draining ({DRAIN} found): {len(todo)} run(s) to do not submitted")
                 break
@@ -244,7 +244,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     deadline_seen = deadline
                     log(f"[study] drain by {time.strftime('%H:%M:%S UTC', time.gmtime(deadline))} ({DRAIN} found): "
                         "only runs expected to finish by then start; the others stay to do")
-                if not draining and _drain_now(rdir):
+                if not draining and _drain_now(deadline):
                     draining = True
                     queued = {f for f in pending
                               if not f.done() and not os.path.exists(runner.progress_path(rdir, futs[f]["key"]))}
@@ -337,9 +337,9 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 DRAIN = runner.DRAIN    # a file in the results directory: finish the runs in flight, start no more, end
 
 
-def _drain_now(rdir):
-    """True when the sweep must drain now: a drain file without a deadline, or one past its deadline."""
-    deadline = runner.drain_deadline(rdir)
+def _drain_now(deadline):
+    """True when the sweep must drain now, given :func:`studies.runner.drain_deadline`: a drain file
+    without a deadline (0.0), or one past its deadline."""
     return deadline is not None and deadline <= time.time()
 
 
