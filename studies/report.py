@@ -240,7 +240,7 @@ def _answer(sp, g, st, cpu):
 
 def _prior_words(prior, target):
     """The sentence of a question without an interval yet: what its target would take, projected
-    from a finished question at another stiffness or run length; "" without one."""
+    from the question with the most pairs at another stiffness or run length; "" without one."""
     if prior is None:
         return ""
     text = (f" Projected from `{prior['ref']}` ({prior['ref_pairs']} pairs at E = {prior['ref_youngs_modulus']:.0e} Pa, "
