@@ -120,15 +120,11 @@ def test_bodies_carry_the_case_mass_and_inertia(small_gas):
     assert ex["body_inertia"] == pytest.approx([mp.principal_moments[2]] * 3, rel=1e-14)
     assert un["body_mass"] == pytest.approx(ms.mass, rel=1e-14)
     assert un["body_mass"] / ex["body_mass"] == pytest.approx(32 / 27, rel=1e-12)     # the paper's dimer
-    # the exact body's moment, independently: the union's discs integrated along the axis,
-    # I_perp = rho pi int R(z)^2 (R(z)^2 / 4 + z^2) dz with R(z)^2 = r^2 - (|z| - d/4)^2
-    import math
-
-    from scipy.integrate import quad
-    r = d / 2
-    i_perp = 2 * 1140.0 * math.pi * quad(lambda z: (r * r - (z - d / 4) ** 2) * ((r * r - (z - d / 4) ** 2) / 4 + z * z),
-                                         0.0, d / 4 + r, epsabs=0, epsrel=1e-13)[0]
-    assert ex["body_inertia"][0] == pytest.approx(i_perp, rel=1e-11)
+    # the exact body's moment, independently: the union integrated disc by disc along its axis
+    # (``_clump_reference``, no clumpprops code)
+    import _clump_reference as ref
+    _, _, qc = ref.pair_body([0, 0, -d / 4], d / 2, [0, 0, d / 4], d / 2, "union")
+    assert ex["body_inertia"][0] == pytest.approx(ref.inertia(qc, 1140.0)[0, 0], rel=1e-11)
     # the exact dimer needs no correction bodies (isotropic route): 27 clumps x (1 + 2 spheres)
     assert ex["n_bodies"] == 27 * 3 and ex["builder"] == "appendClumped"
 
