@@ -68,3 +68,5 @@ bench: setup
 	OMP_NUM_THREADS=1 $(PY) benchmarks/engine_errors.py
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --factors-of trimer=0.0625,0.25,0.5,1.0,1.5,2.0 --bias 400,8 --bias-factors 0.5,1.0,1.5
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes tetra --factors-of tetra=0.0625,0.25,0.5,1.0,1.5,2.0 --gas-factors 0.5,1.0,1.5 --out benchmarks/results/timestep_tetra.json
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e8 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.25,1.58 --out benchmarks/results/timestep_E1e8.json
+	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e9 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.58,2.0 --out benchmarks/results/timestep_E1e9.json

@@ -634,8 +634,14 @@ def main(argv=None):
     ap.add_argument("--gas-t-end", type=float, default=40.0)
     ap.add_argument("--gas-seeds", default="1,2")
     ap.add_argument("--workdir", default=None, help="scratch directory (default: a temporary one)")
+    ap.add_argument("--youngs-modulus", type=float, default=None,
+                    help="Pa (default: the paper's 1e7); the contacts' steps per collision go as E^(1/10) at one factor")
     ap.add_argument("--out", default=OUT)
     a = ap.parse_args(argv)
+    if a.youngs_modulus:
+        if not a.youngs_modulus > 0:
+            ap.error(f"--youngs-modulus must be positive, got {a.youngs_modulus}")
+        MATERIAL["youngs_modulus"] = a.youngs_modulus
     factors = [float(x) for x in a.factors.split(",")]
     gas_factors = [float(x) for x in a.gas_factors.split(",")]
     seeds = [int(x) for x in a.gas_seeds.split(",")]
@@ -647,7 +653,7 @@ def main(argv=None):
         tmp_obj = tempfile.TemporaryDirectory(prefix="clumpprops-dt-")
         workdir = tmp_obj.name
     t_start, c_start = time.time(), cpu_children()
-    result = {"argv": sys.argv[1:], "pairs": a.pairs, "material": MATERIAL,
+    result = {"argv": sys.argv[1:], "pairs": a.pairs, "material": dict(MATERIAL),
               "energy_per_particle": ENERGY, "d_tol": D_TOL, "energy_tol": E_TOL, "shapes": {}, "decision": {}}
     cpu_study = 0.0
     for key in a.shapes.split(","):

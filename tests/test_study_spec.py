@@ -196,6 +196,25 @@ def test_legacy_dt_keeps_the_earlier_seeds_runs_and_raises_the_rest():
     assert S.resolve_run(sp, g, "exact", 1)["run"]["dt_factor"] == 2.0
 
 
+def _coarser_than_measured_safe(spec):
+    """Runs of a spec whose time step resolves a contact more coarsely than the factor measured
+    safe at 1e7 Pa (1.0 for the dimer, trimer and tetrahedron; docs/timestep.md), with the steps
+    per Hertz contact scaled as (E/1e7)^(1/10) (tests/test_timestep.py checks that scaling)."""
+    return [r["name"] for r in S.runs(spec)
+            if r["params"]["run"]["dt_factor"] > (r["params"]["material"]["youngs_modulus"] / 1e7) ** 0.1 + 1e-12]
+
+
+def test_committed_specs_resolve_every_contact_as_finely_as_the_measured_safe_step():
+    for p in sorted(SPECS.glob("*.toml")):
+        assert _coarser_than_measured_safe(S.load(str(p))) == [], p
+    sp = S.load(str(SPECS / "stiffness.toml"))
+    factors = {g["youngs_modulus"]: S.resolve_run(sp, g, "exact", 1)["run"]["dt_factor"] for g in sp["groups"]}
+    assert factors == {1e8: 1.25, 1e9: 1.58}                  # raised: 2.5 and 6.3x a 1e7 run's cost, not 3.2 and 10
+    bad = raw("stiffness")
+    bad["groups"][1]["dt_factor"] = 2.0                        # fails the energy check at 1e9 (timestep_E1e9.json)
+    assert len(_coarser_than_measured_safe(S.validate(bad))) == 2 * len(bad["groups"][1]["seeds"])
+
+
 def test_run_key_includes_model_yade_and_clumpprops_versions(monkeypatch):
     sp = S.validate(raw())
     r = S.runs(sp)[0]

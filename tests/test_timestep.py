@@ -145,9 +145,39 @@ def test_make_bench_reruns_the_committed_timestep_results_with_their_arguments()
     lines = [ln for ln in (ROOT / "Makefile").read_text().splitlines()
              if ln.startswith("\t") and "benchmarks/bench_timestep.py" in ln]
     made = [shlex.split(ln.split("benchmarks/bench_timestep.py", 1)[1]) for ln in lines]
-    for name in ("timestep.json", "timestep_tetra.json"):
+    for name in ("timestep.json", "timestep_tetra.json", "timestep_E1e8.json", "timestep_E1e9.json"):
         argv = json.loads((ROOT / "benchmarks" / "results" / name).read_text())["argv"]
         i = argv.index("--workdir") if "--workdir" in argv else len(argv)   # `make bench` passes none
         want = argv[:i] + argv[i + 2:]
         assert want in made, (name, want, made)
-    assert len(made) == 2
+    assert len(made) == 4
+
+
+def test_a_stiffer_contact_at_the_factor_scaled_by_e_to_the_tenth_is_the_same_leapfrog_collision():
+    """studies/specs/stiffness.toml raises the dt factor as (E/1e7)^(1/10): the P-wave step goes as
+    E^-1/2 and a Hertz contact lasts as E^-2/5, so at the raised factor YADE's leapfrog takes the
+    same steps per contact, and its error per collision (here the energy error, over start
+    phases) is that of the factor at 1e7 Pa: exactly for a head-on collision (the 1-D Hertz
+    problem is self-similar), to within 1 % over oblique ones (there the overlap's share of the
+    contact distance, (mu g^2 / k_n)^(2/5) / sigma, shrinks with E too).  At an unraised factor the
+    stiffer contact is resolved better, and past the scaling worse."""
+    from studies import kinetic
+    rho, nu, r, g = 1140.0, 0.40, 0.06665, 2.0            # the dimer's spheres, a thermal speed
+    mu = 0.5 * 4.0 / 3.0 * math.pi * r ** 3 * rho
+    b = (2 * r * np.array([0.0, 0.3, 0.6, 0.9]))[:, None]
+    phase = np.linspace(0.05, 0.95, 7)[None, :]
+
+    def rms_energy_error(E, factor, b=b):
+        kn = kinetic.hertz_kn(E, nu, r, r)
+        dt = factor * r * math.sqrt(rho / E)                 # the gas's P-wave step
+        _, ratio = kinetic.leapfrog_collision(b, g, 2 * r, mu, kn, dt, phase=phase)
+        return float(np.sqrt(np.mean((ratio ** 2 - 1) ** 2)))
+
+    ref, ref_head_on = rms_energy_error(1e7, 1.0), rms_energy_error(1e7, 1.0, b=0.0)
+    assert 1e-5 < ref < 1e-2 and 1e-5 < ref_head_on < 1e-2   # resolved, but not exact
+    for E in (1e8, 1e9):
+        raised = (E / 1e7) ** 0.1
+        assert rms_energy_error(E, raised, b=0.0) == pytest.approx(ref_head_on, rel=1e-9)
+        assert rms_energy_error(E, raised) == pytest.approx(ref, rel=0.01)
+        assert rms_energy_error(E, 1.0) < 0.7 * ref
+        assert rms_energy_error(E, 1.2 * raised) > 1.3 * ref
