@@ -148,7 +148,7 @@ def make_pairs(shape, n_pairs, seed, energy=ENERGY, gap=1e-3):
     pos[1::2] = ijk + 0.5 * sep
     body = {"builder": cres["builder"], "route": cres["route"], "mass": cres["mass"], "moments": cres["moments"],
             "members": props["members"], "radii": props["radii"]}
-    return {"material": MATERIAL, "body": body, "bounding_radius": r_b, "kT": kT, "rot_dof": rot_dof,
+    return {"material": dict(MATERIAL), "body": body, "bounding_radius": r_b, "kT": kT, "rot_dof": rot_dof,
             "pos": pos.tolist(), "ori": ori.reshape(-1, 9).tolist(), "vel": vel.tolist(),
             "angvel": angvel.tolist(), "t_max": t_max, "spacing": spacing, "lattice": ijk.tolist(),
             "g": g.tolist(), "b": b.tolist(), "seed": seed, "rot_algorithm": "delValle2023"}
@@ -164,8 +164,9 @@ def native_yade_version():
 def run_map(inp, factor, yade, tmp, name):
     dt = factor * p_wave_dt_of_body(inp)
     d = dict(inp, dt=dt)
-    fin = os.path.join(tmp, f"{name}-f{factor}.in.json")
-    fout = os.path.join(tmp, f"{name}-f{factor}.out.json")
+    tag = f"{name}-E{inp['material']['youngs_modulus']:g}-f{factor}"    # runs at other E never collide
+    fin = os.path.join(tmp, f"{tag}.in.json")
+    fout = os.path.join(tmp, f"{tag}.out.json")
     text = json.dumps(d)
     if os.path.exists(fout) and os.path.exists(fin):       # the same run done before: reuse it
         with open(fin) as f:
@@ -474,7 +475,7 @@ def gas_spec(name, shape, yade, factors, n, phi, t_end, seeds, results):
 
 
 def run_gas(key, cfg, factors, n, phi, t_end, seeds, workdir):
-    name = f"timestep_{key}"
+    name = f"timestep_{key}_E{MATERIAL['youngs_modulus']:g}"     # one directory per stiffness
     rdir = os.path.join(workdir, name)
     os.makedirs(rdir, exist_ok=True)
     path = os.path.join(rdir, "spec.toml")
@@ -638,7 +639,7 @@ def main(argv=None):
                     help="Pa (default: the paper's 1e7); the contacts' steps per collision go as E^(1/10) at one factor")
     ap.add_argument("--out", default=OUT)
     a = ap.parse_args(argv)
-    if a.youngs_modulus:
+    if a.youngs_modulus is not None:
         if not a.youngs_modulus > 0:
             ap.error(f"--youngs-modulus must be positive, got {a.youngs_modulus}")
         MATERIAL["youngs_modulus"] = a.youngs_modulus
