@@ -481,6 +481,37 @@ def _other_shapes_words(effect_rows, youngs_modulus=1e7):
     return ["* **Other shapes and overlaps (gas, uncorrected vs exact):** " + " ".join(parts)]
 
 
+def _stiffness_words(effect_rows, maps):
+    """The gas's answer to the hard-particle-limit question in words: the paper's dimer, mass
+    corrected alone (mass_only) vs exact at the same velocities, at every stiffness but 1e7 Pa with two
+    or more pairs, each beside its collision map's prediction and the mass_scaled part (summed mass,
+    exact k²: the softness, which a hard particle cannot feel).  Empty without such rows."""
+    rows = sorted((e for e in effect_rows if e["shape"] == "dimer" and str(e["overlap"]) == "0.5"
+                   and e["case"] == "mass_only" and e["protocol"] == "paired"
+                   and float(e["youngs_modulus"]) != 1e7 and e["n_pairs"] >= 2),
+                  key=lambda e: float(e["youngs_modulus"]))
+    if not rows:
+        return []
+    paper = {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
+    parts = []
+    for e in rows:
+        E = float(e["youngs_modulus"])
+        c = (f"{pct(e['relative'])} {interval(e['relative_ci_low'], e['relative_ci_high'])} at E = {E:.0e} Pa "
+             f"({e['n_pairs']} seed pairs; {verdict(e['relative_ci_low'], e['relative_ci_high'])}")
+        m = paper.get(E, {}).get(("mass_only", "paired"))
+        if m is not None:
+            c += f"; collision map {pct(m['relative'])} ± {100 * 1.96 * m['se']:.2f} %"
+        parts.append(c + ")")
+    soft = [(E, r[("mass_scaled", "paired")]) for E, r in sorted(paper.items()) if ("mass_scaled", "paired") in r]
+    tail = ""
+    if soft:
+        tail = (" What a hard particle cannot feel, the softness acting on a heavier mass (mass_scaled: summed m, "
+                "exact k²), is " + ", ".join(f"{pct(r['relative'])} at E = {E:.0e} Pa" for E, r in soft)
+                + " in the collision maps; mass_only keeps the summed clump's k² error, so its maps do not go to zero.")
+    return ["* **The hard-particle limit (gas, the paper's dimer, mass corrected alone, same velocities):** "
+            + ", ".join(parts) + "." + tail]
+
+
 def plain_words(effect_rows, maps, share):
     """The three answers the issue asks for, in words, from effects.csv's rows, the collision maps
     and the paper's share (each clause only where its numbers exist)."""
@@ -550,6 +581,7 @@ def plain_words(effect_rows, maps, share):
         else:
             said.append("* **Through which part?** " + c)
     said += _other_shapes_words(effect_rows)
+    said += _stiffness_words(effect_rows, maps)
     if share is not None and np.isfinite(share["low"]):
         where = ("inside" if share["low"] <= 0.10 <= share["high"] else "outside")
         said.append(f"* **The paper's \"about 10 %\"** of the sphere-clump gap: the uncorrected clumps' share is "

@@ -208,6 +208,36 @@ def test_plain_words_for_other_shapes_from_effects_rows():
     assert report._other_shapes_words(eff[:1]) == [] and report._other_shapes_words([]) == []
 
 
+def test_plain_words_for_the_hard_particle_limit_from_mass_only_rows_at_other_stiffnesses():
+    """The stiffness bullet: the paper's dimer's mass_only rows at E other than 1e7 Pa with two or
+    more pairs, in order of E, each with its verdict and its own map's mass_only prediction; the
+    maps' mass_scaled (softness) parts after; nothing for 1e7, one pair, another shape or case."""
+    def row(e, rel, lo, hi, n=12, case="mass_only", shape="dimer", overlap=0.5):
+        return {"shape": shape, "overlap": overlap, "protocol": "paired", "case": case, "youngs_modulus": e,
+                "n_pairs": n, "relative": rel, "relative_ci_low": lo, "relative_ci_high": hi}
+
+    def cmap(e, mass_only, soft):
+        return {"shape": {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": 0.5}, "material": {"youngs_modulus": e},
+                "rows": [{"case": "mass_only", "protocol": "paired", "relative": mass_only, "se": 0.0005},
+                         {"case": "mass_scaled", "protocol": "paired", "relative": soft, "se": 0.0001}]}
+    eff = [row(1e9, -0.004, -0.0135, 0.0055, n=14), row(1e8, 0.012, 0.002, 0.022),
+           row(1e7, 0.0009, -0.0091, 0.0108),                  # the 1e7 answer has its own bullet
+           row(3e8, 0.1, 0.0, 0.2, n=1),                       # one pair: no interval
+           row(1e8, 0.5, 0.4, 0.6, case="uncorrected"), row(1e8, 0.5, 0.4, 0.6, overlap=0.25)]
+    maps = [cmap(1e8, -0.0030, 0.0028), cmap(1e9, -0.0031, 0.0012), cmap(1e7, -0.0022, 0.0065)]
+    (text,) = report._stiffness_words(eff, maps)
+    assert text.startswith("* **The hard-particle limit (gas, the paper's dimer, mass corrected alone, same velocities):** "
+                           "+1.20 % [+0.20, +2.20] % at E = 1e+08 Pa (12 seed pairs; larger than exact, resolved; "
+                           "collision map -0.30 % ± 0.10 %), -0.40 % [-1.35, +0.55] % at E = 1e+09 Pa (14 seed pairs; "
+                           "no effect resolved: |effect| < 1.35 % at 95 %; collision map -0.31 % ± 0.10 %).")
+    assert "is +0.65 % at E = 1e+07 Pa, +0.28 % at E = 1e+08 Pa, +0.12 % at E = 1e+09 Pa in the collision maps" in text
+    assert "3e+08" not in text and "+50" not in text
+    assert report._stiffness_words(eff[2:], maps) == [] and report._stiffness_words([], maps) == []
+    (bare,) = report._stiffness_words(eff[:1], [])                   # no maps: no map clauses
+    assert "collision map" not in bare and "mass_scaled" not in bare
+    assert bare in "\n".join(report.plain_words(eff[:1], [], None))
+
+
 def test_plain_words_from_the_tables_maps_and_share():
     """The three plain answers carry the table's, the maps' and the share's numbers; the k² verdict
     follows the largest mapped k² part; nothing to say without data."""
