@@ -439,6 +439,11 @@ def _map_rows(m):
     return {(r["case"], r["protocol"]): r for r in m["rows"]}
 
 
+def _paper_maps(maps):
+    """The paper's dimer's collision maps by Young's modulus: {E: {(case, protocol): row}}."""
+    return {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
+
+
 def _shape_label(e):
     return f"dimer D/d_s = {e['overlap']}" if e["shape"] == "dimer" else str(e["shape"])
 
@@ -486,13 +491,11 @@ def _stiffness_words(effect_rows, maps):
     corrected alone (mass_only) vs exact at the same velocities, at every stiffness but 1e7 Pa with two
     or more pairs, each beside its collision map's prediction and the mass_scaled part (summed mass,
     exact k²: the softness, which a hard particle cannot feel).  Empty without such rows."""
-    rows = sorted((e for e in effect_rows if e["shape"] == "dimer" and str(e["overlap"]) == "0.5"
-                   and e["case"] == "mass_only" and e["protocol"] == "paired"
-                   and float(e["youngs_modulus"]) != 1e7 and e["n_pairs"] >= 2),
-                  key=lambda e: float(e["youngs_modulus"]))
+    stiffer = sorted({float(e["youngs_modulus"]) for e in effect_rows} - {1e7})
+    rows = [r for r in (_effect_row(effect_rows, "paired", case="mass_only", youngs_modulus=E) for E in stiffer) if r]
     if not rows:
         return []
-    paper = {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
+    paper = _paper_maps(maps)
     parts = []
     for e in rows:
         E = float(e["youngs_modulus"])
@@ -521,7 +524,7 @@ def plain_words(effect_rows, maps, share):
     def pm(r, key="relative", se="se"):
         return f"{pct(r[key])} ± {100 * 1.96 * r[se]:.2f} %"
 
-    paper = {m["material"]["youngs_modulus"]: _map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
+    paper = _paper_maps(maps)
     m7 = paper.get(1e7, {})
     gp, ge = _effect_row(effect_rows, "paired"), _effect_row(effect_rows, "equal_energy")
     mp, me, ms = m7.get(("uncorrected", "paired")), m7.get(("uncorrected", "equal_energy")), m7.get(("mass_scaled", "paired"))
