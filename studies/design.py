@@ -244,9 +244,31 @@ def expected_wall_s_in(rdir, p):
 
 def expected_wall_s(p, recs):
     """Expected wall time [s] of a run of resolved parameters ``p``: the median wall time of the
-    finished runs like it (:func:`_median_like`); None while there is none.  A deadline drain
-    (``studies.runner.may_start``) starts a run only if it fits."""
-    return _median_like(p, recs, lambda r: r["wall_s"])
+    finished runs like it (:func:`_median_like`).  Without one, an upper bound from the runs that
+    differ only in Young's modulus, run length or time-step factor (:func:`_wall_upper_bound`), so
+    that a deadline drain can start the first run at a new stiffness; None while there is neither.
+    A deadline drain (``studies.runner.may_start``) starts a run only if it fits."""
+    w = _median_like(p, recs, lambda r: r["wall_s"])
+    return _wall_upper_bound(p, recs) if w is None else w
+
+
+def _wall_upper_bound(p, recs):
+    """Median over the finished runs sharing ``p``'s :func:`_prior_key` (another Young's modulus
+    E, run length T or factor f) of wall_s x (T / T_ref) x max(1, r), r = sqrt(E / E_ref) f_ref / f
+    the ratio of steps per simulated second [s]; None without such a run.  An upper bound if a run's
+    cost is a part per step plus a part per simulated second (recording), each the same at any E:
+    scaling both by the steps' ratio r >= 1 overestimates the second; for r < 1 the run length's
+    ratio alone bounds both (docs/timestep.md: dt goes as E^-1/2)."""
+    key = _prior_key(p)
+    e, t, f = float(p["material"]["youngs_modulus"]), float(p["run"]["t_end"]), float(p["run"]["dt_factor"])
+    xs = []
+    for r in recs.values():
+        q = r["params"]
+        if _prior_key(q) != key:
+            continue
+        ratio = (np.sqrt(e / float(q["material"]["youngs_modulus"])) * float(q["run"]["dt_factor"]) / f)
+        xs.append(float(r["wall_s"]) * t / float(q["run"]["t_end"]) * max(1.0, ratio))
+    return float(np.median(xs)) if xs else None
 
 
 def pair_cost(spec, gi, seed, recs):
@@ -308,9 +330,11 @@ def prior_projection(spec, gi, refs):
     start at another Young's modulus or run length.
 
     ``refs``: candidate references, [(spec, group index, status of :func:`plan`, records)].  The
-    reference with the most pairs is used.  Scalings (assumptions, stated with the result): the
-    per-pair standard deviation of D_case/D_exact - 1 as 1/sqrt(T) of the analysed length T (the
-    reference's mean analysis cut taken off both run lengths); the CPU cost of a run as
+    reference is chosen by :func:`_reference_rank`: one with a full pilot (``MIN_PAIRS``) first,
+    then the nearest stiffness, the nearest run length, the most pairs.  Scalings (assumptions,
+    stated with the result): the per-pair standard deviation of D_case/D_exact - 1 as 1/sqrt(T) of
+    the analysed length T (the reference's mean analysis cut taken off both run lengths); the CPU
+    cost of a run as
     t_end sqrt(E) / dt_factor (the time step goes as E^-1/2, docs/timestep.md), at equal cost per
     step: an upper bound, since the recording's cost per simulated second does not grow with E (the
     committed sphere-gas runs cost 1.9x more per simulated second at 1e8 Pa than at 1e7 Pa, not
@@ -332,11 +356,12 @@ def prior_projection(spec, gi, refs):
         rp = S.resolve_run(rsp, rg, tgt["case"], rg["seeds"][0])
         if _prior_key(rp) != key or (rsp is spec and rgi == gi):
             continue
-        if best is None or rst["n"] > best[2]["n"]:
-            best = (rsp, rgi, rst, rrecs, rp)
+        rank = _reference_rank(p, rp, rst["n"])
+        if best is None or rank > best[0]:
+            best = (rank, (rsp, rgi, rst, rrecs, rp))
     if best is None:
         return None
-    rsp, rgi, rst, rrecs, rp = best
+    rsp, rgi, rst, rrecs, rp = best[1]
     rg = rsp["groups"][rgi]
     seeds = list(rg["seeds"]) + possible_extra_seeds(rsp).get(rgi, [])     # listed and added by the design
     runs = [r for r in _sequential_runs(rsp, rgi, seeds) if r["key"] in rrecs]
@@ -359,6 +384,20 @@ def prior_projection(spec, gi, refs):
             "ref_t_end": t_ref, "sd": float(sd), "n_needed": int(need), "halfwidth_at_max": hw_max,
             "max_seeds": max_n, "cpu_hours_per_pair": per,
             "cpu_hours_to_target": None if per is None else per * need}
+
+
+def _reference_rank(p, rp, n):
+    """Sort key (larger is better) of a prior projection's reference run parameters ``rp`` with
+    ``n`` pairs for the target's parameters ``p``: a reference with at least ``est.MIN_PAIRS`` pairs
+    (its spread is a pilot's, not two pairs'), then the smallest |ln E/E_ref| (the physics nearest
+    the target's), then the smallest |ln T/T_ref| (the least scaling of the spread), then the most
+    pairs.  Before the ninth session the most pairs alone decided, so an equal count kept the first
+    reference found even at a farther stiffness."""
+    def dist(a, b):
+        return abs(float(np.log(float(a) / float(b))))
+    return (n >= est.MIN_PAIRS,
+            -round(dist(p["material"]["youngs_modulus"], rp["material"]["youngs_modulus"]), 12),
+            -round(dist(p["run"]["t_end"], rp["run"]["t_end"]), 12), n)
 
 
 def shape_label(g):

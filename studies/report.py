@@ -240,7 +240,8 @@ def _answer(sp, g, st, cpu):
 
 def _prior_words(prior, target):
     """The sentence of a question without an interval yet: what its target would take, projected
-    from the question with the most pairs at another stiffness or run length; "" without one."""
+    from the same question at another stiffness or run length (``design.prior_projection``'s choice:
+    a full pilot, then the nearest stiffness and length); "" without one."""
     if prior is None:
         return ""
     text = (f" Projected from `{prior['ref']}` ({prior['ref_pairs']} pairs at E = {prior['ref_youngs_modulus']:.0e} Pa, "

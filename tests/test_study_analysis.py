@@ -296,6 +296,33 @@ def test_prior_projection_of_a_question_at_another_stiffness_and_run_length(tmp_
     assert design.prior_projection(spec_for(tmp_path / "v", [g_mo]), 0, refs) is None
 
 
+def test_prior_projection_prefers_a_full_pilot_then_the_nearest_stiffness_and_length(tmp_path):
+    """Among references of the same question: one with a full pilot (MIN_PAIRS pairs) before one
+    with fewer, then the nearest Young's modulus, then the nearest run length, then the most pairs;
+    the order the references come in never decides."""
+    g = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [1, 2],
+         "target": {"case": "mass_only", "halfwidth": 0.01, "batch": 2}, "max_seeds": 60}
+
+    def ref(name, e, t, n, sd):
+        sp = spec_for(tmp_path / name, [dict(g, youngs_modulus=e, t_end=t)])
+        sp["study"]["name"] = name
+        return (sp, 0, {"case": "mass_only", "n": n, "sd": sd}, {})
+    target = spec_for(tmp_path / "target", [dict(g, youngs_modulus=1e9, t_end=400.0)])
+    r7 = ref("e7_1000s", 1e7, 1000.0, 20, 0.05)
+    r8 = ref("e8_400s", 1e8, 400.0, 20, 0.02)
+    r8_long = ref("e8_1000s", 1e8, 1000.0, 20, 0.02)
+    r8_few = ref("e8_few", 1e8, 400.0, 5, 0.02)
+    r8_more = ref("e8_more", 1e8, 400.0, 30, 0.02)
+    for refs, want in (([r7, r8], "e8_400s"), ([r8, r7], "e8_400s"),          # nearest E, either order
+                       ([r8_long, r8], "e8_400s"),                               # then nearest length
+                       ([r7, r8_few], "e7_1000s"),                               # a full pilot first
+                       ([r8, r8_more], "e8_more"), ([r8_more, r8], "e8_more")):  # then the most pairs
+        pr = design.prior_projection(target, 0, refs)
+        assert pr["ref"] == want, (want, pr["ref"])
+    pr = design.prior_projection(target, 0, [r7, r8])
+    assert pr["ref_youngs_modulus"] == 1e8 and pr["sd"] == pytest.approx(0.02, rel=1e-12)   # 400 s: unscaled
+
+
 def test_pairs_needed_is_the_smallest_sample_whose_t_interval_meets_the_target():
     from scipy import stats
 
@@ -733,6 +760,40 @@ def test_may_start_estimates_a_run_from_the_records_finished_by_then(tmp_path):
     assert walls == {"exact": 500.0, "uncorrected": 900.0}, walls
     assert runner.may_start(by_case["exact"], rdir, now=1.0e9)                  # 575 s fits in 1,000
     assert not runner.may_start(by_case["uncorrected"], rdir, now=1.0e9)        # 1,035 s does not
+
+
+def test_expected_wall_time_of_a_new_stiffness_is_an_upper_bound_from_the_runs_at_another(tmp_path):
+    """The first run at a new Young's modulus has no like run to time: its expected wall time is the
+    runs' at another modulus or length, scaled by the run length and by the steps per simulated
+    second when there are more of them (an upper bound), so a deadline drain can start it."""
+    g = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [1]}
+    sp = spec_for(tmp_path, [dict(g, youngs_modulus=1e8, t_end=400.0, dt_factor=1.25)])
+    ref = {c: S.resolve_run(sp, sp["groups"][0], c, 1) for c in g["cases"]}
+    recs = {"a": {"params": ref["exact"], "wall_s": 600.0}, "b": {"params": ref["exact"], "wall_s": 800.0},
+            "c": {"params": ref["mass_only"], "wall_s": 5000.0}}          # another case: never used
+    sp9 = spec_for(tmp_path / "9", [dict(g, youngs_modulus=1e9, t_end=400.0, dt_factor=1.58)])
+    p9 = S.resolve_run(sp9, sp9["groups"][0], "exact", 1)
+    assert design._median_like(p9, recs, lambda r: r["wall_s"]) is None        # no run like it
+    assert design.expected_wall_s(p9, recs) == pytest.approx(700.0 * math.sqrt(10.0) * 1.25 / 1.58, rel=1e-12)
+    sp7 = spec_for(tmp_path / "7", [dict(g, youngs_modulus=1e7, t_end=1000.0, dt_factor=1.0)])
+    p7 = S.resolve_run(sp7, sp7["groups"][0], "exact", 1)
+    # fewer steps per second (r = 0.395): the run length's ratio alone, not the smaller r x 2.5
+    assert design.expected_wall_s(p7, recs) == pytest.approx(700.0 * 2.5, rel=1e-12)
+    sp_ov = spec_for(tmp_path / "o", [dict(g, youngs_modulus=1e9, t_end=400.0, dt_factor=1.58)])
+    sp_ov["shapes"] = {"dimer": dict(sp_ov["shapes"]["dimer"], overlap=0.25)}
+    assert design.expected_wall_s(S.resolve_run(sp_ov, sp_ov["groups"][0], "exact", 1), recs) is None
+    # the same through a deadline drain: 1.15 x 1,751 s = 2,014 s fits in 2,100 s, not in 1,900 s
+    rdir = engine.results_dir(sp9)
+    os.makedirs(rdir, exist_ok=True)
+    run9 = {"params": p9}
+    (Path(rdir) / runner.DRAIN).write_text(f"{1.0e9 + 2100}")
+    assert not runner.may_start(run9, rdir, now=1.0e9)                      # no records in rdir yet
+    os.makedirs(os.path.join(rdir, "runs"), exist_ok=True)
+    for k, rec in recs.items():
+        Path(rdir, "runs", k + ".json").write_text(json.dumps(rec))
+    assert runner.may_start(run9, rdir, now=1.0e9)
+    (Path(rdir) / runner.DRAIN).write_text(f"{1.0e9 + 1900}")
+    assert not runner.may_start(run9, rdir, now=1.0e9)
 
 
 def test_driver_under_a_deadline_starts_only_runs_that_fit(tmp_path, monkeypatch):
