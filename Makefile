@@ -70,3 +70,4 @@ bench: setup
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes tetra --factors-of tetra=0.0625,0.25,0.5,1.0,1.5,2.0 --gas-factors 0.5,1.0,1.5 --out benchmarks/results/timestep_tetra.json
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e8 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.25,1.58 --out benchmarks/results/timestep_E1e8.json
 	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e9 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.58,2.0 --out benchmarks/results/timestep_E1e9.json
+	OMP_NUM_THREADS=1 $(PY) benchmarks/pair_correlation.py > benchmarks/results/pair_correlation.txt && cat benchmarks/results/pair_correlation.txt
