@@ -158,8 +158,9 @@ def programme_section(lines, plans):
                      f"design's minimum of {MIN_PAIRS} pairs (a smaller pilot sample undercovers). CPU-h to target: the runs "
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
                      "step; a run another question already made (a seed's exact run) costs nothing."
-                     + (" (prior): a question with fewer than 2 pairs, projected from the question with the most "
-                        "pairs that differs from it only in stiffness or run length (its spread scaled as 1/sqrt of "
+                     + (" (prior): a question with fewer than 2 pairs, projected from a question that differs "
+                        f"from it only in stiffness or run length (one with {MIN_PAIRS} pairs or more first, then the "
+                        "nearest stiffness and run length, then the most pairs; its spread scaled as 1/sqrt of "
                         "the analysed length, its run cost as length × sqrt(E) / dt factor, an upper bound: the recording's "
                         "share of a run's cost does not grow with E; `studies.design.prior_projection`)." if prior_seen else ""))
         lines.append("")
