@@ -253,22 +253,33 @@ def expected_wall_s(p, recs):
 
 
 def _wall_upper_bound(p, recs):
-    """Median over the finished runs sharing ``p``'s :func:`_prior_key` (another Young's modulus
-    E, run length T or factor f) of wall_s x (T / T_ref) x max(1, r), r = sqrt(E / E_ref) f_ref / f
-    the ratio of steps per simulated second [s]; None without such a run.  An upper bound if a run's
-    cost is a part per step plus a part per simulated second (recording), each the same at any E:
-    scaling both by the steps' ratio r >= 1 overestimates the second; for r < 1 the run length's
-    ratio alone bounds both (docs/timestep.md: dt goes as E^-1/2)."""
-    key = _prior_key(p)
-    e, t, f = float(p["material"]["youngs_modulus"]), float(p["run"]["t_end"]), float(p["run"]["dt_factor"])
-    xs = []
-    for r in recs.values():
-        q = r["params"]
-        if _prior_key(q) != key:
-            continue
-        ratio = (np.sqrt(e / float(q["material"]["youngs_modulus"])) * float(q["run"]["dt_factor"]) / f)
-        xs.append(float(r["wall_s"]) * t / float(q["run"]["t_end"]) * max(1.0, ratio))
+    """Median over the finished runs that differ from ``p`` only in Young's modulus E, run length T
+    or time-step factor f (:func:`_bound_key`) of wall_s x :func:`cost_scale` [s]; None without
+    such a run."""
+    key = _bound_key(p)
+    xs = [float(r["wall_s"]) * cost_scale(p, r["params"]) for r in recs.values() if _bound_key(r["params"]) == key]
     return float(np.median(xs)) if xs else None
+
+
+def cost_scale(p, q):
+    """A factor that bounds a run of parameters ``p``'s cost by that of a run ``q`` differing in
+    Young's modulus E, run length T and time-step factor f: max(1, (T / T_q) max(1, r)), with
+    r = sqrt(E / E_q) f_q / f the ratio of steps per simulated second (dt goes as E^-1/2,
+    docs/timestep.md).  An upper bound if a run costs a fixed part (start-up, the analysis) plus a
+    part per step plus a part per simulated second (recording), each the same at any E: the first
+    needs the factor >= 1, the second (T / T_q) r, the third T / T_q."""
+    r = (np.sqrt(float(p["material"]["youngs_modulus"]) / float(q["material"]["youngs_modulus"]))
+         * float(q["run"]["dt_factor"]) / float(p["run"]["dt_factor"]))
+    return float(max(1.0, float(p["run"]["t_end"]) / float(q["run"]["t_end"]) * max(1.0, r)))
+
+
+def _bound_key(params):
+    """:func:`_cost_key` without the Young's modulus and the run length: the runs whose wall time,
+    scaled by :func:`cost_scale`, bounds a run's (the versions stay: a newer model may be slower)."""
+    q = {k: v for k, v in params.items() if k != "seed"}
+    q["material"] = {k: v for k, v in params["material"].items() if k != "youngs_modulus"}
+    q["run"] = {k: v for k, v in params["run"].items() if k not in ("dt_factor", "t_end")}
+    return json.dumps(q, sort_keys=True, default=str)
 
 
 def pair_cost(spec, gi, seed, recs):
@@ -334,11 +345,10 @@ def prior_projection(spec, gi, refs):
     then the nearest stiffness, the nearest run length, the most pairs.  Scalings (assumptions,
     stated with the result): the per-pair standard deviation of D_case/D_exact - 1 as 1/sqrt(T) of
     the analysed length T (the reference's mean analysis cut taken off both run lengths); the CPU
-    cost of a run as
-    t_end sqrt(E) / dt_factor (the time step goes as E^-1/2, docs/timestep.md), at equal cost per
-    step: an upper bound, since the recording's cost per simulated second does not grow with E (the
-    committed sphere-gas runs cost 1.9x more per simulated second at 1e8 Pa than at 1e7 Pa, not
-    3.2x).  Returns None without a reference, else a dict: ``ref`` (study name), ``ref_pairs``,
+    cost of a pair as the reference's times :func:`cost_scale` (run length, and steps per simulated
+    second when more: sqrt(E) / dt_factor): an upper bound, since the recording's cost per
+    simulated second does not grow with E (the committed sphere-gas runs cost 1.9x more per
+    simulated second at 1e8 Pa than at 1e7 Pa, not 3.2x).  Returns None without a reference, else a dict: ``ref`` (study name), ``ref_pairs``,
     ``ref_youngs_modulus`` (Pa), ``ref_t_end`` (s), ``sd`` (scaled), ``n_needed``,
     ``halfwidth_at_max`` (at ``max_seeds``), ``max_seeds``, ``cpu_hours_per_pair``,
     ``cpu_hours_to_target`` (for ``n_needed`` pairs; None where the reference's run cost is not
@@ -348,7 +358,7 @@ def prior_projection(spec, gi, refs):
     tgt = g["target"]
     p = S.resolve_run(spec, g, tgt["case"], g["seeds"][0])
     key = _prior_key(p)
-    best = None
+    cands = []
     for rsp, rgi, rst, rrecs in refs:
         rg = rsp["groups"][rgi]
         if rst.get("case") != tgt["case"] or rst["n"] < 2 or not (rst["sd"] == rst["sd"]):
@@ -356,12 +366,11 @@ def prior_projection(spec, gi, refs):
         rp = S.resolve_run(rsp, rg, tgt["case"], rg["seeds"][0])
         if _prior_key(rp) != key or (rsp is spec and rgi == gi):
             continue
-        rank = _reference_rank(p, rp, rst["n"])
-        if best is None or rank > best[0]:
-            best = (rank, (rsp, rgi, rst, rrecs, rp))
-    if best is None:
+        cands.append((_reference_rank(p, rp, rst["n"]), rsp["study"]["name"], rgi, (rsp, rgi, rst, rrecs, rp)))
+    if not cands:
         return None
-    rsp, rgi, rst, rrecs, rp = best[1]
+    cands.sort(key=lambda c: (c[1], c[2]))      # a full tie goes to the first study name, not the first found
+    rsp, rgi, rst, rrecs, rp = max(cands, key=lambda c: c[0])[3]
     rg = rsp["groups"][rgi]
     seeds = list(rg["seeds"]) + possible_extra_seeds(rsp).get(rgi, [])     # listed and added by the design
     runs = [r for r in _sequential_runs(rsp, rgi, seeds) if r["key"] in rrecs]
@@ -374,12 +383,11 @@ def prior_projection(spec, gi, refs):
     need = est.pairs_needed(sd, tgt["halfwidth"], est.MIN_PAIRS)
     max_n = g.get("max_seeds")
     hw_max = None if max_n is None or max_n < 2 else float(est._tq(0.95, max_n - 1) * sd / np.sqrt(max_n))
-    e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
+    e_ref = float(rp["material"]["youngs_modulus"])
     ref_seed = max([int(r["seed"]) for r in runs] + list(rg["seeds"])) + 1     # the design's next seed
     ref_pair = pair_cost(rsp, rgi, ref_seed, rrecs)      # a new pair of the reference, at its time step
     ref_f = S.resolve_run(rsp, rg, tgt["case"], ref_seed)["run"]["dt_factor"]
-    per = None if ref_pair is None else float(ref_pair * (t / t_ref) * np.sqrt(e / e_ref)
-                                               * ref_f / p["run"]["dt_factor"])
+    per = None if ref_pair is None else ref_pair * cost_scale(p, dict(rp, run=dict(rp["run"], dt_factor=ref_f)))
     return {"ref": rsp["study"]["name"], "ref_pairs": int(rst["n"]), "ref_youngs_modulus": e_ref,
             "ref_t_end": t_ref, "sd": float(sd), "n_needed": int(need), "halfwidth_at_max": hw_max,
             "max_seeds": max_n, "cpu_hours_per_pair": per,
@@ -391,13 +399,13 @@ def _reference_rank(p, rp, n):
     ``n`` pairs for the target's parameters ``p``: a reference with at least ``est.MIN_PAIRS`` pairs
     (its spread is a pilot's, not two pairs'), then the smallest |ln E/E_ref| (the physics nearest
     the target's), then the smallest |ln T/T_ref| (the least scaling of the spread), then the most
-    pairs.  Before the ninth session the most pairs alone decided, so an equal count kept the first
-    reference found even at a farther stiffness."""
-    def dist(a, b):
-        return abs(float(np.log(float(a) / float(b))))
-    return (n >= est.MIN_PAIRS,
-            -round(dist(p["material"]["youngs_modulus"], rp["material"]["youngs_modulus"]), 12),
-            -round(dist(p["run"]["t_end"], rp["run"]["t_end"]), 12), n)
+    pairs, then a softer reference (E_ref < E) before a stiffer one at the same distance, then a
+    longer run before a shorter one.  Before the ninth session the most pairs alone decided, so an
+    equal count kept the first reference found even at a farther stiffness."""
+    e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
+    t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
+    return (n >= est.MIN_PAIRS, -round(abs(float(np.log(e / e_ref))), 12), -round(abs(float(np.log(t / t_ref))), 12),
+            n, e_ref <= e, t_ref >= t)
 
 
 def shape_label(g):

@@ -159,10 +159,12 @@ def programme_section(lines, plans):
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
                      "step; a run another question already made (a seed's exact run) costs nothing."
                      + (" (prior): a question with fewer than 2 pairs, projected from a question that differs "
-                        f"from it only in stiffness or run length (one with {MIN_PAIRS} pairs or more first, then the "
-                        "nearest stiffness and run length, then the most pairs; its spread scaled as 1/sqrt of "
-                        "the analysed length, its run cost as length × sqrt(E) / dt factor, an upper bound: the recording's "
-                        "share of a run's cost does not grow with E; `studies.design.prior_projection`)." if prior_seen else ""))
+                        f"from it only in stiffness, run length or time-step factor (one with {MIN_PAIRS} pairs or more "
+                        "first, then the nearest stiffness and run length, then the most pairs; its spread scaled as "
+                        "1/sqrt of the analysed length, its run cost as the run length and, when there are more, the "
+                        "steps per simulated second (sqrt(E) / dt factor), never below one reference run: an upper "
+                        "bound, as the recording's share of a run's cost does not grow with E; "
+                        "`studies.design.prior_projection`)." if prior_seen else ""))
         lines.append("")
     if not any_group:
         lines += ["No sequential study has finished pairs yet.", ""]

@@ -136,8 +136,9 @@ def drain_deadline(results_dir):
 def may_start(run, results_dir, now=None):
     """False when a drain forbids ``run`` to start: a drain now, or a deadline that the run's expected
     wall time times :data:`DRAIN_MARGIN` would overshoot.  The expected wall time [s] is
-    ``run["expected_wall_s"]`` if given, else the median of the records under ``results_dir``
-    finished by now of runs like it (:func:`studies.design.expected_wall_s_in`).  A run of unknown
+    ``run["expected_wall_s"]`` if given, else from the records under ``results_dir`` finished by
+    now (:func:`studies.design.expected_wall_s_in`): the median of the runs like it, or, before the
+    first of them, an upper bound from the runs at another stiffness or length.  A run of unknown
     length never fits a deadline."""
     deadline = drain_deadline(results_dir)
     if deadline is None:

@@ -285,6 +285,16 @@ def test_prior_projection_of_a_question_at_another_stiffness_and_run_length(tmp_
     assert pr["halfwidth_at_max"] == pytest.approx(stats.t.ppf(0.975, 39) * sd / math.sqrt(40), rel=1e-9)
     # a reference pair: 2 runs x 600 s at dt factor 0.5, like the target's seeds; x 0.4 (length) x 10 (sqrt E)
     assert pr["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600 * 0.4 * 10, rel=1e-12)
+    # a softer target (1e5 Pa: a tenth of the steps per second) is not priced x 0.1 x 0.4: the run
+    # length's ratio bounds its per-second part, the whole reference pair its fixed part (x 1)
+    sp_soft = spec_for(tmp_path / "s", [dict(g, youngs_modulus=1e5)])
+    sp_soft["run"] = dict(sp_soft["run"], t_end=400.0)
+    pr_soft = design.prior_projection(sp_soft, 0, refs)
+    assert pr_soft["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600, rel=1e-12)
+    sp_soft_long = spec_for(tmp_path / "sl", [dict(g, youngs_modulus=1e5)])
+    sp_soft_long["run"] = dict(sp_soft_long["run"], t_end=2500.0)        # 2.5 x the reference's length
+    pr_sl = design.prior_projection(sp_soft_long, 0, refs)
+    assert pr_sl["cpu_hours_per_pair"] == pytest.approx(2 * 600 / 3600 * 2.5, rel=1e-12)
     assert pr["cpu_hours_to_target"] == pytest.approx(n * pr["cpu_hours_per_pair"], rel=1e-12)
     words = report._prior_words(pr, 0.02)
     assert f"needs about {n} pairs" in words and "max_seeds (40)" in words
@@ -298,8 +308,8 @@ def test_prior_projection_of_a_question_at_another_stiffness_and_run_length(tmp_
 
 def test_prior_projection_prefers_a_full_pilot_then_the_nearest_stiffness_and_length(tmp_path):
     """Among references of the same question: one with a full pilot (MIN_PAIRS pairs) before one
-    with fewer, then the nearest Young's modulus, then the nearest run length, then the most pairs;
-    the order the references come in never decides."""
+    with fewer, then the nearest Young's modulus, then the nearest run length, then the most pairs,
+    then the softer; the order the references come in never decides."""
     g = {"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [1, 2],
          "target": {"case": "mass_only", "halfwidth": 0.01, "batch": 2}, "max_seeds": 60}
 
@@ -313,10 +323,17 @@ def test_prior_projection_prefers_a_full_pilot_then_the_nearest_stiffness_and_le
     r8_long = ref("e8_1000s", 1e8, 1000.0, 20, 0.02)
     r8_few = ref("e8_few", 1e8, 400.0, 5, 0.02)
     r8_more = ref("e8_more", 1e8, 400.0, 30, 0.02)
+    r7_400 = ref("e7_400s", 1e7, 400.0, 20, 0.02)
+    r8_11 = ref("e8_11", 1e8, 400.0, 11, 0.02)
+    r7_12 = ref("e7_12", 1e7, 400.0, 12, 0.02)
+    r10 = ref("e10_400s", 1e10, 400.0, 20, 0.02)
     for refs, want in (([r7, r8], "e8_400s"), ([r8, r7], "e8_400s"),          # nearest E, either order
                        ([r8_long, r8], "e8_400s"),                               # then nearest length
+                       ([r8_long, r7_400], "e8_1000s"), ([r7_400, r8_long], "e8_1000s"),   # E before length
                        ([r7, r8_few], "e7_1000s"),                               # a full pilot first
-                       ([r8, r8_more], "e8_more"), ([r8_more, r8], "e8_more")):  # then the most pairs
+                       ([r8_11, r7_12], "e7_12"), ([r7_12, r8_11], "e7_12"),     # 12 pairs is one, 11 not
+                       ([r8, r8_more], "e8_more"), ([r8_more, r8], "e8_more"),   # then the most pairs
+                       ([r10, r8], "e8_400s"), ([r8, r10], "e8_400s")):          # a tie: the softer
         pr = design.prior_projection(target, 0, refs)
         assert pr["ref"] == want, (want, pr["ref"])
     pr = design.prior_projection(target, 0, [r7, r8])
@@ -779,6 +796,13 @@ def test_expected_wall_time_of_a_new_stiffness_is_an_upper_bound_from_the_runs_a
     p7 = S.resolve_run(sp7, sp7["groups"][0], "exact", 1)
     # fewer steps per second (r = 0.395): the run length's ratio alone, not the smaller r x 2.5
     assert design.expected_wall_s(p7, recs) == pytest.approx(700.0 * 2.5, rel=1e-12)
+    # a shorter run at the same step density: never below the reference's whole wall time (its
+    # fixed part, start-up and analysis, does not shrink with the run), not 0.5 x 700 s
+    sp2 = spec_for(tmp_path / "2", [dict(g, youngs_modulus=1e8, t_end=200.0, dt_factor=1.25)])
+    assert design.expected_wall_s(S.resolve_run(sp2, sp2["groups"][0], "exact", 1), recs) == pytest.approx(700.0)
+    # another model version: not a bound (a newer model may be slower)
+    p_new = dict(p9, model_version=(p9.get("model_version") or 0) + 1)
+    assert design.expected_wall_s(p_new, recs) is None
     sp_ov = spec_for(tmp_path / "o", [dict(g, youngs_modulus=1e9, t_end=400.0, dt_factor=1.58)])
     sp_ov["shapes"] = {"dimer": dict(sp_ov["shapes"]["dimer"], overlap=0.25)}
     assert design.expected_wall_s(S.resolve_run(sp_ov, sp_ov["groups"][0], "exact", 1), recs) is None
