@@ -272,6 +272,11 @@ def results_specs():
 
 
 if __name__ == "__main__":       # python -m studies.effects: results/effects.csv from every spec in the results
+    import argparse
+    argparse.ArgumentParser(prog="python -m studies.effects",
+                            description="Write results/effects.csv (one row per shape, overlap, protocol, "
+                                        "stiffness and case against exact) from the committed run records of "
+                                        "every spec in the results.").parse_args()
     rows = write(results_specs(), os.path.join(S.ROOT, "results", "effects.csv"))
     print(f"[effects] {len(rows)} rows in results/effects.csv")
     for r in rows:

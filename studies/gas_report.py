@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 
 import pandas as pd
 
@@ -64,4 +63,8 @@ def report(out):
 
 
 if __name__ == "__main__":
-    print(report(sys.argv[1] if len(sys.argv) > 1 else "results/granular_gas"))
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m studies.gas_report",
+                                 description="Print the Markdown summary of one study's results directory.")
+    ap.add_argument("results_dir", nargs="?", default="results/granular_gas")
+    print(report(ap.parse_args().results_dir))

@@ -1014,10 +1014,16 @@ def build():
     return text
 
 
-def main():
+def main(argv=()):
     """``python -m studies.report``: 0 on success; 1 with the reason on stderr, no traceback, when
     the results cannot be reported as they are (two effects rows a reader could not tell apart, a
-    record without a Green-Kubo D, a bad spec)."""
+    record without a Green-Kubo D, a bad spec).  ``argv``: the command line's arguments (none are
+    taken; ``--help`` prints what the command writes and writes nothing)."""
+    import argparse
+    argparse.ArgumentParser(prog="python -m studies.report", description="Write results/README.md, the study's answers, generated "
+                            "from the results tables (no typed numbers).",
+                            epilog="Writes results/effects.csv, results/README.md and the report's plots "
+                                   "in results/ from the committed run records.").parse_args(list(argv))
     try:
         text = build()
     except ValueError as e:         # SpecError is one
@@ -1028,4 +1034,4 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))

@@ -526,3 +526,15 @@ def test_committed_hard_sphere_md_collides_at_enskogs_rate():
     (e,) = [g for g in hard_sphere_md.read() if g["n"] == 864]
     assert e["n_runs"] >= 100
     assert abs(e["rate_rel_enskog"]) < 3 * e["rate_rel_enskog_se"]
+
+
+def test_report_help_prints_usage_and_writes_nothing(monkeypatch, capsys):
+    """`python -m studies.report --help` says what the command writes and exits 0 without building
+    the report (it used to ignore its arguments and rewrite results/); an unknown option exits 2."""
+    monkeypatch.setattr(report, "build", lambda: pytest.fail("--help built the report"))
+    with pytest.raises(SystemExit) as e:
+        report.main(["--help"])
+    assert e.value.code == 0 and "results/README.md" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        report.main(["--bogus"])
+    assert e.value.code == 2
