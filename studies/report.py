@@ -108,12 +108,13 @@ def planned(specs):
         recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
         status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
         out.append(Planned(sp, recs, status))
-    # a question without an interval of its own yet: projected from one with pairs that differs only
-    # in stiffness or run length (design.prior_projection), so that its budget can be judged
+    # a question before the end of its pilot (MIN_PAIRS pairs; below 2 it has no interval of its
+    # own): projected also from one with pairs that differs only in stiffness, run length or time
+    # step (design.prior_projection), so that its budget can be judged before its own spread is
     refs = [(sp, gi, st, recs) for sp, recs, status in out for gi, st in status.items()]
     for sp, _, status in out:
         for gi, st in status.items():
-            if st["n"] < 2:
+            if st["n"] < MIN_PAIRS:
                 st["prior"] = design.prior_projection(sp, gi, refs)
     return out
 
@@ -145,11 +146,14 @@ def programme_section(lines, plans):
             cost = "n/a" if st.get("cpu_hours_to_target") is None else f"{st['cpu_hours_to_target']:.1f}"
             need = "n/a" if st["n_needed"] is None else str(st["n_needed"])
             prior = st.get("prior")
-            if prior is not None:
+            if prior is not None and st["n"] < 2:
                 prior_seen = True
                 need = f"{prior['n_needed']} (prior)"
                 if prior["cpu_hours_to_target"] is not None:
                     cost = f"{prior['cpu_hours_to_target']:.1f} (prior)"
+            elif prior is not None and not st["met"]:      # its own spread, of a few pairs, and the prior's
+                prior_seen = True
+                need += f"; {prior['n_needed']} (prior)"
             lines.append(f"| {design.shape_label(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
                          f"{'n/a' if hw != hw else f'{100 * hw:.2f} %'} | {100 * st['target']:.2f} % | {st['state']} | "
                          f"{need} | {cost} |")
@@ -158,7 +162,8 @@ def programme_section(lines, plans):
                      f"design's minimum of {MIN_PAIRS} pairs (a smaller pilot sample undercovers). CPU-h to target: the runs "
                      "those pairs still need, each at the median CPU time of the finished runs of its case and time "
                      "step; a run another question already made (a seed's exact run) costs nothing."
-                     + (" (prior): a question with fewer than 2 pairs, projected from a question that differs "
+                     + (" (prior): a question with fewer than 2 pairs (or, beside its own projection, fewer "
+                        f"than the pilot's {MIN_PAIRS}), projected from a question that differs "
                         f"from it only in stiffness, run length or time-step factor (one with {MIN_PAIRS} pairs or more "
                         "first, then the nearest stiffness and run length, then the most pairs; its spread scaled as "
                         "1/sqrt of the analysed length, its run cost as the run length and, when there are more, the "
@@ -238,6 +243,10 @@ def _answer(sp, g, st, cpu):
         if st.get("cpu_hours_to_target") is not None:
             text += f", {_cpu_hours_more(st['cpu_hours_to_target'])} for the runs not made yet"
         text += f" (state: {st['state']})."
+        if st.get("prior") is not None:
+            text += (f" The spread of {n} pairs is itself uncertain before the design's pilot of {MIN_PAIRS} "
+                     "pairs ends; the same question at another stiffness or run length gives a second projection."
+                     + _prior_words(st["prior"], st["target"]))
     return text
 
 

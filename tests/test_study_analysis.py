@@ -340,6 +340,40 @@ def test_prior_projection_prefers_a_full_pilot_then_the_nearest_stiffness_and_le
     assert pr["ref_youngs_modulus"] == 1e8 and pr["sd"] == pytest.approx(0.02, rel=1e-12)   # 400 s: unscaled
 
 
+def test_report_gives_a_question_in_its_pilot_a_second_projection_from_the_prior(tmp_path):
+    """A question with 2-11 pairs has its own (noisy) projection and, beside it, the prior's from the
+    same question at another stiffness; at 12 pairs the prior goes."""
+    from studies import report
+
+    sp, rdir = _sequential(tmp_path / "ref", noise_sd=0.3)      # the reference: 12 pairs at 1e7 Pa
+    g = {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 13)), "youngs_modulus": 1e9,
+         "target": {"case": "uncorrected", "halfwidth": 0.02, "batch": 2}, "max_seeds": 40}
+    sp_t = spec_for(tmp_path / "t", [g])
+    sp_t["study"]["name"] = "target_study"
+    rdir_t = engine.results_dir(sp_t)
+    rng = np.random.default_rng(3)
+    for run in S.runs(sp_t):
+        if run["seed"] <= 4:                                     # 4 pairs of the 12-pair pilot
+            fr, v0 = frames_of(rng, 48, 250.0, 0.5)
+            write_record(rdir_t, run, fr, v0, [0.0], 100.0)
+    plans = report.planned([sp, sp_t])
+    st = plans[1].status[0]
+    assert st["n"] == 4 and st["prior"] is not None and st["prior"]["ref_pairs"] == 12
+    assert "prior" not in plans[0].status[0]                     # 12 pairs: its own spread only
+    lines = []
+    report.programme_section(lines, plans)
+    row = next(ln for ln in lines if ln.startswith("| dimer at E = 1e+09 Pa"))
+    assert f"{st['n_needed']}; {st['prior']['n_needed']} (prior) |" in row, row
+    words = report._answer(sp_t, sp_t["groups"][0], st, design.cpu_hours(plans[1].records))
+    assert "second projection" in words and f"needs about {st['prior']['n_needed']} pairs" in words, words
+    for run in S.runs(sp_t):                                     # the pilot completes: no prior any more
+        if run["seed"] > 4:
+            fr, v0 = frames_of(rng, 48, 250.0, 0.5)
+            write_record(rdir_t, run, fr, v0, [0.0], 100.0)
+    st12 = report.planned([sp, sp_t])[1].status[0]
+    assert st12["n"] == 12 and "prior" not in st12
+
+
 def test_pairs_needed_is_the_smallest_sample_whose_t_interval_meets_the_target():
     from scipy import stats
 
