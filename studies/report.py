@@ -114,8 +114,12 @@ def planned(specs):
     refs = [(sp, gi, st, recs) for sp, recs, status in out for gi, st in status.items()]
     for sp, _, status in out:
         for gi, st in status.items():
-            if st["n"] < MIN_PAIRS:
+            if st["n"] < 2:
                 st["prior"] = design.prior_projection(sp, gi, refs)
+            elif st["n"] < MIN_PAIRS and st["state"] == "running":     # a second opinion, from a full pilot only
+                pr = design.prior_projection(sp, gi, refs)
+                if pr is not None and pr["ref_pairs"] >= MIN_PAIRS:
+                    st["prior"] = pr
     return out
 
 
@@ -151,7 +155,7 @@ def programme_section(lines, plans):
                 need = f"{prior['n_needed']} (prior)"
                 if prior["cpu_hours_to_target"] is not None:
                     cost = f"{prior['cpu_hours_to_target']:.1f} (prior)"
-            elif prior is not None and not st["met"]:      # its own spread, of a few pairs, and the prior's
+            elif prior is not None:        # inside its pilot: its own spread, of a few pairs, and the prior's
                 prior_seen = True
                 need += f"; {prior['n_needed']} (prior)"
             lines.append(f"| {design.shape_label(g)}, {st['case']} vs exact, {g['protocol']} | {st['n']} | {pct(mean)} | "
@@ -203,12 +207,17 @@ def _status_rows(plans):
     return out
 
 
+def _cpu_hours(h):
+    """"about 3 CPU-hours", "about 1 CPU-hour", "under half a CPU-hour"."""
+    if h < 0.5:
+        return "under half a CPU-hour"
+    n = max(1, int(h + 0.5))
+    return f"about {n} CPU-hour{'' if n == 1 else 's'}"
+
+
 def _cpu_hours_more(h):
     """"about 3 CPU-hours more", "about 1 CPU-hour more", "under half a CPU-hour more"."""
-    if h < 0.5:
-        return "under half a CPU-hour more"
-    n = max(1, int(h + 0.5))
-    return f"about {n} CPU-hour{'' if n == 1 else 's'} more"
+    return _cpu_hours(h) + " more"
 
 
 def _answer(sp, g, st, cpu):
@@ -235,6 +244,7 @@ def _answer(sp, g, st, cpu):
         text += (f" Half-width {100 * hw:.2f} % already within the target ±{100 * st['target']:.2f} %, but the "
                  f"design stops no earlier than {st['min_n']} pairs (a smaller pilot sample undercovers, "
                  f"docs/estimator.md): {st['min_n'] - n} more (state: {st['state']}).")
+        text += _pilot_prior_words(st)
     else:
         need = st["n_needed"]
         text += (f" Target ±{100 * st['target']:.2f} % not met yet: half-width {100 * hw:.2f} % after "
@@ -243,29 +253,40 @@ def _answer(sp, g, st, cpu):
         if st.get("cpu_hours_to_target") is not None:
             text += f", {_cpu_hours_more(st['cpu_hours_to_target'])} for the runs not made yet"
         text += f" (state: {st['state']})."
-        if st.get("prior") is not None:
-            text += (f" The spread of {n} pairs is itself uncertain before the design's pilot of {MIN_PAIRS} "
-                     "pairs ends; the same question at another stiffness or run length gives a second projection."
-                     + _prior_words(st["prior"], st["target"]))
+        text += _pilot_prior_words(st)
     return text
 
 
-def _prior_words(prior, target):
-    """The sentence of a question without an interval yet: what its target would take, projected
-    from the same question at another stiffness or run length (``design.prior_projection``'s choice:
-    a full pilot, then the nearest stiffness and length); "" without one."""
+def _prior_words(prior, target, n_done=0):
+    """The sentence of a question's prior projection: what its target would take, projected from
+    the same question at another stiffness, run length or time step (``design.prior_projection``'s
+    choice: a full pilot, then the nearest stiffness and length); "" without one.  ``n_done``: the
+    pairs the question already has, which cost nothing more (the CPU-hours are for the rest)."""
     if prior is None:
         return ""
     text = (f" Projected from `{prior['ref']}` ({prior['ref_pairs']} pairs at E = {prior['ref_youngs_modulus']:.0e} Pa, "
-            f"{prior['ref_t_end']:g} s runs; spread scaled to this run length, {100 * prior['sd']:.2f} % a pair): "
+            f"{prior['ref_t_end']:g} s runs; spread scaled to this run length, {100 * prior['sd']:.2f} % a pair), "
             f"±{100 * target:.2f} % needs about {prior['n_needed']} pairs")
     if prior["cpu_hours_to_target"] is not None:
-        text += (f", at most about {prior['cpu_hours_to_target']:.0f} CPU-hours ({prior['cpu_hours_per_pair']:.2f} a pair, "
+        more = max(0, prior["n_needed"] - n_done) * prior["cpu_hours_per_pair"]
+        text += (f", at most {_cpu_hours(more)}{' more' if n_done else ''} ({prior['cpu_hours_per_pair']:.2f} a pair, "
                  "the run cost scaled with the number of steps)")
-    if prior["max_seeds"] is not None and prior["n_needed"] > prior["max_seeds"]:
+    if (prior["max_seeds"] is not None and prior["n_needed"] > prior["max_seeds"]
+            and prior["halfwidth_at_max"] is not None):
         text += (f"; the group's max_seeds ({prior['max_seeds']}) would stop it at about "
                  f"±{100 * prior['halfwidth_at_max']:.2f} %")
     return text + "."
+
+
+def _pilot_prior_words(st):
+    """For a question inside its pilot (2-11 pairs, still running): its own spread is uncertain, so
+    the prior's projection follows (:func:`planned` keeps it only from a question with a full
+    pilot); "" otherwise."""
+    if st.get("prior") is None or st["n"] < 2:
+        return ""
+    return (f" The spread of {st['n']} pairs is itself uncertain until the design's {MIN_PAIRS}-pair pilot is "
+            "complete; the same question at another stiffness, run length or time step gives a second projection."
+            + _prior_words(st["prior"], st["target"], n_done=st["n"]))
 
 
 def _mass_scaling(sp, g, st):

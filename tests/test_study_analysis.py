@@ -363,9 +363,22 @@ def test_report_gives_a_question_in_its_pilot_a_second_projection_from_the_prior
     lines = []
     report.programme_section(lines, plans)
     row = next(ln for ln in lines if ln.startswith("| dimer at E = 1e+09 Pa"))
-    assert f"{st['n_needed']}; {st['prior']['n_needed']} (prior) |" in row, row
+    assert row.endswith(f"| {st['n_needed']}; {st['prior']['n_needed']} (prior) | {st['cpu_hours_to_target']:.1f} |"), row
     words = report._answer(sp_t, sp_t["groups"][0], st, design.cpu_hours(plans[1].records))
     assert "second projection" in words and f"needs about {st['prior']['n_needed']} pairs" in words, words
+    # the prior's CPU-hours are for the pairs not made yet, as the question's own are
+    more = (st["prior"]["n_needed"] - 4) * st["prior"]["cpu_hours_per_pair"]
+    assert f"at most {report._cpu_hours(more)} more (" in words, words
+    # a question with fewer pairs than a full pilot is no second opinion: two questions in their
+    # pilots (4 pairs at 1e9 Pa, 3 at 1e8 Pa) do not project each other
+    sp_3 = spec_for(tmp_path / "three", [dict(g, youngs_modulus=1e8)])
+    sp_3["study"]["name"] = "three_pairs"
+    for run in S.runs(sp_3):
+        if run["seed"] <= 3:
+            fr, v0 = frames_of(rng, 48, 250.0, 0.5)
+            write_record(engine.results_dir(sp_3), run, fr, v0, [0.0], 100.0)
+    p2 = report.planned([sp_t, sp_3])
+    assert [p.status[0]["n"] for p in p2] == [4, 3] and all("prior" not in p.status[0] for p in p2)
     for run in S.runs(sp_t):                                     # the pilot completes: no prior any more
         if run["seed"] > 4:
             fr, v0 = frames_of(rng, 48, 250.0, 0.5)
