@@ -196,12 +196,19 @@ def plan(spec, rdir, recs=None):
     return extra, status
 
 
+def _key_without(params, top=("seed",), material=(), run=()):
+    """A run's parameters as a comparable string, without the keys named: ``top`` of the parameters
+    themselves, ``material`` of its material table, ``run`` of its run table."""
+    q = {k: v for k, v in params.items() if k not in top}
+    q["material"] = {k: v for k, v in params["material"].items() if k not in material}
+    q["run"] = {k: v for k, v in params["run"].items() if k not in run}
+    return json.dumps(q, sort_keys=True, default=str)
+
+
 def _cost_key(params):
     """A run's parameters without its seed and time-step factor: runs that cost the same per step
     (same shape, case, protocol, stiffness, length, gas)."""
-    q = {k: v for k, v in params.items() if k != "seed"}
-    q["run"] = {k: v for k, v in params["run"].items() if k != "dt_factor"}
-    return json.dumps(q, sort_keys=True, default=str)
+    return _key_without(params, run=("dt_factor",))
 
 
 def _median_like(p, recs, value):
@@ -276,10 +283,7 @@ def cost_scale(p, q):
 def _bound_key(params):
     """:func:`_cost_key` without the Young's modulus and the run length: the runs whose wall time,
     scaled by :func:`cost_scale`, bounds a run's (the versions stay: a newer model may be slower)."""
-    q = {k: v for k, v in params.items() if k != "seed"}
-    q["material"] = {k: v for k, v in params["material"].items() if k != "youngs_modulus"}
-    q["run"] = {k: v for k, v in params["run"].items() if k not in ("dt_factor", "t_end")}
-    return json.dumps(q, sort_keys=True, default=str)
+    return _key_without(params, material=("youngs_modulus",), run=("dt_factor", "t_end"))
 
 
 def pair_cost(spec, gi, seed, recs):
@@ -329,10 +333,8 @@ def cost_of_seeds(spec, gi, seeds, recs):
 def _prior_key(params):
     """What a prior projection must share with its reference: everything in a run's parameters but
     the seed, the Young's modulus, the run length, the time-step factor and the versions."""
-    q = {k: v for k, v in params.items() if k not in ("seed", "model_version", "clumpprops_version")}
-    q["material"] = {k: v for k, v in params["material"].items() if k != "youngs_modulus"}
-    q["run"] = {k: v for k, v in params["run"].items() if k not in ("t_end", "dt_factor")}
-    return json.dumps(q, sort_keys=True, default=str)
+    return _key_without(params, top=("seed", "model_version", "clumpprops_version"),
+                        material=("youngs_modulus",), run=("t_end", "dt_factor"))
 
 
 def prior_projection(spec, gi, refs):
