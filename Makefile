@@ -9,7 +9,7 @@ PYTEST_ARGS ?= -q
 .PHONY: setup run test test-native test-debian13 setup-debian13 test-random fuzz test-core asan bench example paper
 setup:
 	@VENV=$(VENV) bash scripts/setup.sh
-# main job: the worked example, then the paper's Fig. 2 at the quick scale (10 runs of 250 s on 2 cores: 19-33 min measured in fresh clones beside make test or study sweeps)
+# main job: the worked example, then the paper's Fig. 2 at the quick scale (10 runs of 250 s on 2 cores: 9 min measured in a fresh clone on idle cores, 19-33 min beside make test or study sweeps)
 run: setup
 	$(PY) examples/paper_dimer.py
 	OMP_NUM_THREADS=1 $(PY) -m studies run quick --allow-dirty
