@@ -14,40 +14,37 @@ import pandas as pd
 import pytest
 
 from studies import spec as S
+from studies.report import interval, pct
 
 MINUS = "\u2212"
 
-# the findings table's rows (by the start of their first cell) and the effects.csv rows they give,
-# in the order they give them: (shape, overlap, protocol, Young's modulus [Pa], case)
+# the findings table's rows (by the start of their first cell): the effects.csv rows they give, in
+# the order they give them, as (shape, overlap, protocol, Young's modulus [Pa], case); and whether
+# the row gives each one's 95 % interval (True) or its value alone (False)
 TABLE = {
-    "the paper's dimer, uncorrected vs exact, same velocities": [("dimer", 0.5, "paired", 1e7, "uncorrected")],
-    "... mass corrected alone": [("dimer", 0.5, "paired", 1e7, "mass_only")],
-    "... inertia corrected alone": [("dimer", 0.5, "paired", 1e7, "inertia_only")],
-    "... same kinetic energy": [("dimer", 0.5, "equal_energy", 1e7, "uncorrected")],
-    "triangle trimer, tetrahedron, dimers at": [
+    "the paper's dimer, uncorrected vs exact, same velocities": ([("dimer", 0.5, "paired", 1e7, "uncorrected")], True),
+    "... mass corrected alone": ([("dimer", 0.5, "paired", 1e7, "mass_only")], True),
+    "... inertia corrected alone": ([("dimer", 0.5, "paired", 1e7, "inertia_only")], True),
+    "... same kinetic energy": ([("dimer", 0.5, "equal_energy", 1e7, "uncorrected")], True),
+    "triangle trimer, tetrahedron, dimers at": ([
         ("trimer_triangle", 0.5, "paired", 1e7, "uncorrected"),
         ("tetrahedron", 0.5, "paired", 1e7, "uncorrected"),
         ("dimer", 0.25, "paired", 1e7, "uncorrected"),
-        ("dimer", 0.75, "paired", 1e7, "uncorrected")],
-    "the same shapes, same kinetic energy": [
+        ("dimer", 0.75, "paired", 1e7, "uncorrected")], False),
+    "the same shapes, same kinetic energy": ([
         ("trimer_triangle", 0.5, "equal_energy", 1e7, "uncorrected"),
         ("tetrahedron", 0.5, "equal_energy", 1e7, "uncorrected"),
         ("dimer", 0.25, "equal_energy", 1e7, "uncorrected"),
-        ("dimer", 0.75, "equal_energy", 1e7, "uncorrected")],
-    "the hard-particle limit": [
+        ("dimer", 0.75, "equal_energy", 1e7, "uncorrected")], False),
+    "the hard-particle limit": ([
         ("dimer", 0.5, "paired", 1e8, "mass_only"),
-        ("dimer", 0.5, "paired", 1e9, "mass_only")],
+        ("dimer", 0.5, "paired", 1e9, "mass_only")], True),
 }
 NOT_IN_TABLE = {"spheres", "paired_same_spin"}     # a case and a protocol the table does not carry
 
 
 def _norm(s):
     return s.replace(MINUS, "-")
-
-
-def _pct(x):
-    """A fraction as the report writes a percentage: sign and two decimals."""
-    return f"{100 * x:+.2f}"
 
 
 @pytest.fixture(scope="module")
@@ -85,23 +82,23 @@ def test_every_interval_of_the_findings_is_the_reports(section):
 
 def test_the_findings_table_gives_every_effect(table, effects):
     wanted = {k for k, r in effects.items() if r.case not in NOT_IN_TABLE and r.protocol not in NOT_IN_TABLE}
-    given = {k for keys in TABLE.values() for k in keys}
+    given = {k for keys, _ in TABLE.values() for k in keys}
     assert given == wanted, f"effects.csv rows the README table does not give: {sorted(wanted - given)}; " \
                             f"given but not in effects.csv: {sorted(given - wanted)}"
-    for start, keys in TABLE.items():
+    for start, (keys, with_interval) in TABLE.items():
         row = [cells for first, cells in table.items() if first.startswith(start)]
         assert len(row) == 1, f"README findings table: no single row starting {start!r}"
         first, answer, pairs = row[0][:3]
-        # the values in order
+        # the values in order, each with the report's interval where the row gives intervals
         at = 0
         for k in keys:
-            v = _pct(effects[k].relative)
+            e = effects[k]
+            v = pct(e.relative)
+            if with_interval:
+                v += " " + interval(e.relative_ci_low, e.relative_ci_high)
             pos = answer.find(v, at)
-            assert pos >= 0, f"{start}: {v} % ({k}) not in {answer!r} after position {at}"
+            assert pos >= 0, f"{start}: {v} ({k}) not in {answer!r} after position {at}"
             at = pos + len(v)
-            if len(keys) == 1 or k[3] != 1e7:        # an interval given: it is the report's
-                lo, hi = _pct(effects[k].relative_ci_low), _pct(effects[k].relative_ci_high)
-                assert f"{v} % [{lo}, {hi}] %" in answer, (start, k)
         # the seed pairs: "N each", or one count per value
         n = [int(effects[k].n_pairs) for k in keys]
         counts = [int(x) for x in re.findall(r"\d+", pairs)]
