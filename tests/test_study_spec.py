@@ -220,10 +220,44 @@ def _measured_safe(params):
     return q
 
 
+# the shapes whose largest safe factor docs/timestep.md measured (1.0 at 1e7 Pa)
+MEASURED_KINDS = ("dimer", "trimer_triangle", "tetrahedron")
+
+
+def _most_steps_measured_safe(params):
+    """The most steps per contact among the measured shapes (the paper's overlap 0.5, d_s = 0.1333 m)
+    in their measured-safe configuration: what a shape the time-step study never ran must reach."""
+    steps = []
+    for kind in MEASURED_KINDS:
+        q = copy.deepcopy(params)
+        q["shape"]["definition"] = {"kind": kind, "sphere_diameter": 0.1333, "overlap": 0.5}
+        steps.append(_steps_per_contact(_measured_safe(q)))
+    return max(steps)
+
+
 def _coarser_than_measured_safe(spec):
-    """Runs of a spec that resolve a contact with fewer steps than the measured-safe configuration."""
+    """Runs of a spec that resolve a contact with fewer steps than the measured-safe configuration:
+    their own shape at factor 1.0 where the time-step study measured that kind, else the most
+    demanding measured shape."""
+    def reference(params):
+        if params["shape"]["definition"]["kind"] in MEASURED_KINDS:
+            return _steps_per_contact(_measured_safe(params))
+        return _most_steps_measured_safe(params)
     return [r["name"] for r in S.runs(spec)
-            if _steps_per_contact(r["params"]) < (1 - 1e-9) * _steps_per_contact(_measured_safe(r["params"]))]
+            if _steps_per_contact(r["params"]) < (1 - 1e-9) * reference(r["params"])]
+
+
+def test_a_shape_the_time_step_study_never_ran_is_held_to_the_measured_shapes_steps_per_contact():
+    sp = S.load(str(SPECS / "grains.toml"))
+    assert _coarser_than_measured_safe(sp) == []
+    params = S.runs(sp)[0]["params"]
+    need = _most_steps_measured_safe(params)
+    assert _steps_per_contact(params) >= need
+    with open(SPECS / "grains.toml", "rb") as f:
+        coarse = tomllib.load(f)
+    coarse["run"]["dt_factor"] *= 1.01 * _steps_per_contact(params) / need    # just too coarse
+    coarse = S.validate(coarse)
+    assert len(_coarser_than_measured_safe(coarse)) == len(S.runs(coarse)) > 0
 
 
 def test_committed_specs_resolve_every_contact_as_finely_as_the_measured_safe_step():

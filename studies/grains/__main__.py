@@ -1,0 +1,3 @@
+from studies.grains import main
+
+main()
