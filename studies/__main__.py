@@ -6,6 +6,7 @@
     analyze  tables from the manifest and the reduced records
     plot     figures from the tables
     prepare  write run files and a yade-batch table for running by hand (yade-batch)
+    plan     validate the spec, list the runs still to do and estimate their CPU-hours (runs nothing)
 
 SPEC is a study spec (``studies/specs/*.toml``; a bare name like ``quick`` means
 ``studies/specs/quick.toml``).
@@ -30,7 +31,7 @@ def _spec_path(name):
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m studies", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare"))
+    ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare", "plan"))
     ap.add_argument("spec", help="study spec file or name (studies/specs/NAME.toml)")
     ap.add_argument("--scheduler", default=None, help="tcp://HOST:PORT of a running Dask scheduler "
                     "(default: a LocalCluster in this process, one worker per core)")
@@ -55,6 +56,10 @@ def main(argv=None):
     from . import engine
 
     t0 = time.time()
+    if a.command == "plan":
+        from . import plan
+        plan.plan(spec)
+        return 0
     if a.command == "prepare":
         from . import prepare
         prepare.write(spec, a.out or "runs_prepared")

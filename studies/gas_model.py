@@ -143,6 +143,10 @@ def _rot_z(phi):
 
 
 
+# m between the bounding spheres of two particles at the start
+PLACEMENT_GAP = 0.02
+
+
 def random_sequential_positions(rng, n, box, dmin):
     """(n, 3) positions [m] uniform in the periodic cube of side ``box`` [m], every pair at least
     ``dmin`` [m] apart (minimum image): random sequential addition with ``rng``.  RuntimeError
@@ -164,7 +168,7 @@ def random_sequential_positions(rng, n, box, dmin):
 
 def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass, exact_inertia=None,
                   case_inertia=None, protocol="paired", energy_per_particle=ENERGY_PER_PARTICLE,
-                  start="zero_spin", linear=True, gap=0.02, spin_pairing="same"):
+                  start="zero_spin", linear=True, gap=None, spin_pairing="same"):
     """Initial state of one run: centres (n, 3) m in [0, box), orientations (n, 3, 3) (body to
     world), velocities (n, 3) m/s and angular velocities (n, 3) rad/s (world frame).
 
@@ -204,6 +208,7 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
     if spin_pairing not in SPIN_PAIRINGS:
         raise ValueError(f"unknown spin_pairing {spin_pairing!r} (known: {', '.join(SPIN_PAIRINGS)})")
     rng = np.random.default_rng(seed)
+    gap = PLACEMENT_GAP if gap is None else gap
     pos = random_sequential_positions(rng, n_particles, box, 2 * bounding_radius + gap)
     axes = rng.normal(size=(n_particles, 3))
     axes /= np.linalg.norm(axes, axis=1)[:, None]

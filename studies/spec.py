@@ -213,15 +213,16 @@ def validate(raw):
         for k in need:
             if sd[k] is None:
                 raise SpecError(f"shapes.{name}.{k}: missing (needed by kind = {sd['kind']!r})")
-        extra = [k for k in (("sphere_diameter", "overlap") if sd["kind"] == "file" else ("path",))
-                 if sd[k] is not None]
+        extra = [k for k in (("sphere_diameter", "overlap") if sd["kind"] == "file" else ("path", "scale"))
+                 if s.get(k) is not None]
         if extra:
             raise SpecError(f"shapes.{name}.{extra[0]}: not used by kind = {sd['kind']!r}")
         sd = {k: v for k, v in sd.items() if v is not None and not (k == "scale" and sd["kind"] != "file")}
         try:
-            shp.properties(sd, spec["material"]["density"])
+            centers, radii = shp.raw_members(sd)
         except (ValueError, OSError) as e:
             raise SpecError(f"shapes.{name}: {e}") from None
+        _check_one_body(f"shapes.{name}", sd, centers, radii)
         spec["shapes"][name] = sd
     groups = raw.get("groups")
     if not isinstance(groups, list) or not groups:
@@ -263,7 +264,73 @@ def validate(raw):
                             f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
                             f"integrator, which gains energy; set study.yade = '2025.2'")
         spec["groups"].append(gd)
+        _check_placement(where, spec, gd)
+        _check_analysis_window(where, spec, gd)
     return spec
+
+
+def _check_one_body(where, shape, centers, radii):
+    """A clump must be one rigid body: every sphere overlaps the others in one connected set, and
+    none is coincident with or inside another (it would add nothing to the union and its mass
+    twice to the sum)."""
+    d = np.linalg.norm(centers[:, None] - centers[None], axis=2)
+    scale = float(np.max(radii))
+    inside = d + radii[:, None] <= radii[None] + 1e-12 * scale
+    np.fill_diagonal(inside, False)
+    if inside.any():
+        i, j = np.argwhere(inside)[0]
+        raise SpecError(f"{where}: sphere {i} is coincident with or inside sphere {j}; remove it")
+    touching = d < radii[:, None] + radii[None]
+    reached, todo = {0}, [0]
+    while todo:
+        for j in np.flatnonzero(touching[todo.pop()]):
+            if int(j) not in reached:
+                reached.add(int(j))
+                todo.append(int(j))
+    if len(reached) < len(radii):
+        hint = (" (overlap = D/d_s must be < 1 for the spheres to overlap)" if shape["kind"] != "file" else
+                f" (is the file in metres? scale = {shape.get('scale', 1.0)})")
+        raise SpecError(f"{where}: the spheres do not form one body: sphere {min(set(range(len(radii))) - reached)} "
+                        f"overlaps none of the spheres connected to sphere 0{hint}")
+
+
+# random sequential addition (studies.gas_model.random_sequential_positions) of the bounding spheres
+# reaches this share of the box within its 1000 n tries (its jamming limit is 0.38)
+PLACEMENT_LIMIT = 0.25
+
+
+def _check_placement(where, spec, g):
+    """The gas of group ``g`` can be placed: its particles' bounding spheres (plus the start's gap)
+    fill at most :data:`PLACEMENT_LIMIT` of the box."""
+    mat, gas, _ = group_tables(spec, g)
+    props = shp.properties(spec["shapes"][g["shape"]], mat["density"])
+    spheres = dict(spec["spheres"], density=mat["density"])
+    rb = max([shp.bounding_radius(spec["shapes"][g["shape"]], mat["density"])] +
+             [gm.resolve_case(props, c, spheres).get("radius", 0.0) for c in g["cases"]])
+    n, phi = int(gas["n_particles"]), float(gas["volume_fraction"])
+    box = gm.box_length(n, props["exact"]["volume"], phi)
+    filled = n * math.pi / 6 * (2 * rb + gm.PLACEMENT_GAP) ** 3 / box ** 3
+    if filled > PLACEMENT_LIMIT:
+        raise SpecError(f"{where}: gas.volume_fraction = {phi:g} cannot be placed: the particles' bounding spheres "
+                        f"would fill {filled:.2f} of the box and random placement reaches {PLACEMENT_LIMIT}; "
+                        f"use volume_fraction <= {phi * PLACEMENT_LIMIT / filled:.3g}")
+
+
+def _check_analysis_window(where, spec, g):
+    """The analysis fits the run: t_eq, the cuts, the MSD fit window and the VACF lags inside the
+    run length of group ``g``."""
+    _, _, run = group_tables(spec, g)
+    a, t_end = spec["analysis"], float(run["t_end"])
+    t_eq = a["t_eq"] if not isinstance(a["t_eq"], str) else 0.0
+    start = max([t_eq] + list(a["cuts"]))
+    if start >= t_end:
+        key = "analysis.t_eq" if t_eq >= max(a["cuts"] or [0.0]) else "analysis.cuts"
+        raise SpecError(f"{where}: {key} = {start:g} s is not before the end of the run (t_end = {t_end:g} s)")
+    window = t_end - start
+    for key in ("max_lag", "fit_hi"):
+        if a[key] >= window:
+            raise SpecError(f"{where}: analysis.{key} = {a[key]:g} s does not fit the analysed window of "
+                            f"{window:g} s (t_end {t_end:g} s from t = {start:g} s): lengthen the run or shorten the lags")
 
 
 def group_tables(spec, g):

@@ -43,6 +43,14 @@ def yade_2025():
         pytest.fail(f"no YADE 2025.2: {e}")
 
 
+def _tiny_analysis(t_end):
+    """Analysis settings that fit a test-scale run of ``t_end`` s (the spec refuses lags longer than
+    the analysed window)."""
+    t_eq = min(0.4, 0.1 * t_end)
+    window = t_end - t_eq
+    return dict(t_eq=t_eq, fit_lo=min(1.0, 0.3 * window), fit_hi=min(2.5, 0.6 * window), max_lag=min(3.5, 0.9 * window))
+
+
 def tiny(tmp, t_end=6.0, seeds=(1,), cases=("exact", "uncorrected", "spheres"), extra=None, **over):
     """A test-scale spec written to tmp (27 particles, volume fraction 0.02) and its results dir."""
     with open(os.path.join(S.SPEC_DIR, "test.toml"), "rb") as f:
@@ -50,7 +58,7 @@ def tiny(tmp, t_end=6.0, seeds=(1,), cases=("exact", "uncorrected", "spheres"), 
     r["study"]["results"] = str(tmp / "results")
     r["study"]["yade"] = NATIVE
     r["run"]["t_end"] = t_end
-    r["analysis"].update(t_eq=0.5, fit_lo=1.0, fit_hi=2.5, max_lag=4.0)
+    r["analysis"].update(_tiny_analysis(t_end))
     r["groups"] = [{"shape": "dimer", "cases": list(cases), "seeds": list(seeds)}] + list(extra or [])
     for k, v in over.items():
         t, key = k.split("__")
@@ -189,7 +197,7 @@ def _raw_tiny(tmp, t_end, seeds, cases=("exact", "uncorrected", "spheres")):
     r["study"]["results"] = str(tmp / "results")
     r["study"]["yade"] = NATIVE
     r["run"]["t_end"] = t_end
-    r["analysis"].update(t_eq=0.5, fit_lo=1.0, fit_hi=2.5, max_lag=4.0)
+    r["analysis"].update(_tiny_analysis(t_end))
     r["groups"] = [{"shape": "dimer", "cases": list(cases), "seeds": list(seeds)}]
     return r
 

@@ -5,6 +5,7 @@ No YADE here: the specs, shapes and initial states are pure numpy + clumpprops.
 import copy
 import json
 import math
+import re
 import sys
 import tomllib
 from pathlib import Path
@@ -652,3 +653,65 @@ def test_spin_pairing_is_validated():
     r["gas"]["spin_pairing"] = "paired"
     with pytest.raises(S.SpecError, match="gas.spin_pairing"):
         S.validate(r)
+
+
+def _file_shape_spec(tmp_path, lines, **shape):
+    f = tmp_path / "clump.txt"
+    f.write_text("".join(f"{x} {y} {z} {r} 0\n" for x, y, z, r in lines))
+    r = raw()
+    r["shapes"] = {"mine": dict(kind="file", path=str(f), **shape)}
+    for g in r["groups"]:
+        g["shape"] = "mine"
+    return r
+
+
+@pytest.mark.parametrize("lines, message", [
+    ([(0, 0, 0, 0.05), (1.0, 0, 0, 0.05)], "the spheres do not form one body: sphere 1"),
+    ([(0, 0, 0, 0.05), (0.05, 0, 0, 0.05), (0.05, 0, 0, 0.05)], "sphere 1 is coincident with or inside sphere 2"),
+    ([(0, 0, 0, 0.05), (0.01, 0, 0, 0.02)], "sphere 1 is coincident with or inside sphere 0"),
+])
+def test_a_file_clump_that_is_not_one_body_is_refused_by_name(tmp_path, lines, message):
+    with pytest.raises(S.SpecError, match="shapes.mine: " + message):
+        S.validate(_file_shape_spec(tmp_path, lines))
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda r: r["shapes"]["dimer"].update(overlap=1.5), r"shapes.dimer: the spheres do not form one body.*overlap = D/d_s must be < 1"),
+    (lambda r: r["shapes"]["dimer"].update(scale=2.0), "shapes.dimer.scale: not used by kind = 'dimer'"),
+    (lambda r: r["gas"].update(volume_fraction=0.7), r"gas.volume_fraction = 0.7 cannot be placed.*use volume_fraction <= 0\.0"),
+    (lambda r: r["analysis"].update(t_eq=500.0), r"analysis.t_eq = 500 s is not before the end of the run \(t_end = 400 s\)"),
+    (lambda r: r["analysis"].update(cuts=[0.0, 450.0]), r"analysis.cuts = 450 s is not before the end"),
+    (lambda r: r["analysis"].update(max_lag=360.0), r"analysis.max_lag = 360 s does not fit the analysed window of 350 s"),
+    (lambda r: r["groups"][0].update(t_end=200.0), r"groups\[0\]: analysis.max_lag = 150 s does not fit the analysed window of 150 s"),
+])
+def test_a_spec_that_cannot_run_or_be_analysed_is_refused_before_any_run(mutate, message):
+    assert re.search(message, _bad(mutate)), _bad(mutate)
+
+
+def test_the_largest_volume_fraction_the_refusal_names_can_be_placed():
+    from studies import gas_model as gm
+    msg = _bad(lambda r: r["gas"].update(volume_fraction=0.7))
+    phi = float(re.search(r"use volume_fraction <= ([0-9.e-]+)", msg).group(1))
+    r = raw()
+    r["gas"]["volume_fraction"] = phi * 0.999
+    sp = S.validate(r)
+    run = S.runs(sp)[0]
+    state = S.run_input(run["params"])       # places the particles
+    pos = np.asarray(state["initial"]["pos"])
+    assert len(pos) == r["gas"]["n_particles"]
+    r["gas"]["volume_fraction"] = phi * 1.01
+    with pytest.raises(S.SpecError, match="cannot be placed"):
+        S.validate(r)
+
+
+def test_a_bad_spec_stops_the_command_line_with_one_line_and_status_2(tmp_path):
+    import subprocess
+    r = raw()
+    r["shapes"]["dimer"]["overlap"] = 1.5
+    f = tmp_path / "bad.toml"
+    f.write_text(_toml(r))
+    p = subprocess.run([sys.executable, "-m", "studies", "status", str(f)], capture_output=True, text=True,
+                       cwd=S.ROOT)
+    assert p.returncode == 2
+    assert p.stdout == "" and len(p.stderr.strip().splitlines()) == 1
+    assert "shapes.dimer: the spheres do not form one body" in p.stderr
