@@ -561,6 +561,21 @@ def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_c
         effects.paired_values([leg])
 
 
+def test_a_new_spec_in_the_spec_folder_does_not_enter_the_headline(tmp_path):
+    """A user's own study (or one of the project's not yet listed) is not read by the headline: the
+    headline's specs are listed by name, whatever else lies beside them."""
+    import shutil
+    for f in os.listdir(S.SPEC_DIR):
+        shutil.copy(os.path.join(S.SPEC_DIR, f), tmp_path / f)
+    before = [sp["study"]["name"] for sp in effects.results_specs(str(tmp_path))]
+    extra = tmp_path / "my_chain.toml"
+    extra.write_text((tmp_path / "test.toml").read_text().replace("in_results = false", "in_results = true")
+                     .replace('name = "test"', 'name = "my_chain"'))
+    assert S.load(str(extra))["study"]["in_results"]
+    assert [sp["study"]["name"] for sp in effects.results_specs(str(tmp_path))] == before
+    assert "my_chain" not in before and "grains" not in before
+
+
 def test_results_specs_are_the_programme():
     """The report reads every committed spec but the scratch and first-version scales, whose runs
     (make run's quick scale among them) would otherwise enter effects.csv beside the real study."""
