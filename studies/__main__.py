@@ -1,10 +1,12 @@
 """Command line of the gas studies: ``python -m studies COMMAND SPEC [options]``.
 
-    run      sweep (the spec's missing runs, on Dask) + analyze + plot + report
+    run      sweep (the spec's missing runs, on Dask) + analyze + plot: the study's tables, figures
+             and its own report page <results>/README.md (the project's headline report, results/README.md,
+             is python -m studies.report)
     sweep    only the runs
     status   the manifest: runs done, flagged, failed, to do
     analyze  tables from the manifest and the reduced records
-    plot     figures from the tables
+    plot     figures and the study's report page <results>/README.md from the tables
     prepare  write run files and a yade-batch table for running by hand (yade-batch)
     plan     validate the spec, list the runs still to do and estimate their CPU-hours (runs nothing)
 
@@ -92,7 +94,9 @@ def main(argv=None):
         analysis.analyze(spec)
     if a.command in ("run", "plot"):
         from . import gas_plots
+        from . import study_page
         gas_plots.plot_all(engine.results_dir(spec))
+        study_page.write(engine.results_dir(spec))
     if a.command == "run":
         print(f"[run] total wall time {engine._fmt_s(time.time() - t0)}; results in "
               f"{os.path.relpath(engine.results_dir(spec), S.ROOT)}")

@@ -1,9 +1,14 @@
 """Figures of the granular-gas study, drawn from the CSV tables only (no run files needed).
 
-fig2_msd.png          the paper's Fig. 2: log-log MSD of every case (+ relative difference panel)
+fig2_msd.png          log-log MSD of every case (+ relative difference panel); the paper's Fig. 2
+                      for its own spec
 ratio.png             (MSD_case - MSD_exact) / (MSD_spheres - MSD_exact) over lag, 95 % CI
+                      (needs the spheres case)
 energy_partition.png  translational / rotational share of the total energy over time
-diffusion.png         D per case and protocol with 95 % CI
+diffusion.png         D per case and protocol with 95 % CI of each alone, and D_case / D_exact - 1
+                      with the 95 % t-interval of the differences paired by seed
+
+:func:`plot_all` returns the figures drawn; :func:`not_drawn` says why each other one is not.
 """
 from __future__ import annotations
 
@@ -36,6 +41,33 @@ def _style(case, prot="paired"):
         st["alpha"] = 0.7
         st["lw"] = 1.0
     return st
+
+
+# the specs whose study is the paper's Fig. 2 (at paper, quick and test scale)
+FIG2_STUDIES = ("paper", "quick", "test")
+
+
+def msd_title(params):
+    """Title of fig2_msd.png from the study's params.json: its name, and "the paper's Fig. 2" only
+    for the paper's own study."""
+    study = params.get("study") or {}
+    name = study.get("name") or f"granular gas, {params.get('scale', '?')} scale"
+    fig2 = study.get("name") in FIG2_STUDIES or "scale" in params
+    return f"{name}: mean-square displacement" + (" (the paper's Fig. 2)" if fig2 else "")
+
+
+def not_drawn(out):
+    """{figure: why it is not drawn} for the figures of :data:`__doc__` that ``out``'s tables cannot give."""
+    why = {}
+    for fig, table, reason in (
+            ("fig2_msd.png", "msd.csv", "no mean-square displacement table (no analysed run)"),
+            ("ratio.png", "ratio.csv", "the paper's ratio needs the spheres case, which this study does not run"),
+            ("energy_partition.png", "energy_partition.csv", "no energy table (no analysed run)"),
+            ("diffusion.png", "protocols.csv", "no diffusion table (no analysed run)")):
+        t = _read(os.path.join(out, table))
+        if t is None or not len(t):
+            why[fig] = reason
+    return why
 
 
 def plot_all(out, log=print):
@@ -72,7 +104,7 @@ def plot_all(out, log=print):
                 a2.plot(g.lag_s, 100 * g.rel_diff, **st)
         a2.legend(fontsize=6, loc="upper right")
         a1.set(xscale="log", yscale="log", xlabel="lag t (s)", ylabel="MSD (m$^2$)",
-               title="Fig. 2 reproduced: mean-square displacement")
+               title=msd_title(params))
         a1.legend(fontsize=8)
         a1.grid(True, which="both", alpha=0.3)
         a2.axhline(0, color="k", lw=0.8)
@@ -155,7 +187,11 @@ def plot_all(out, log=print):
 
     prot = _read(os.path.join(out, "protocols.csv"))
     if prot is not None and len(prot):
-        fig, ax = plt.subplots(figsize=(7, 4))
+        paired = _read(os.path.join(out, "diff_D.csv"))
+        paired = paired if paired is not None and len(paired) else None
+        fig, axes = plt.subplots(1, 2 if paired is not None else 1, figsize=(13 if paired is not None else 7, 4),
+                                 squeeze=False)
+        ax = axes[0, 0]
         for i, r in enumerate(prot.itertuples()):
             st = _style(r.case, r.protocol)
             lo = r.diffusion_coefficient - r.ci_low if r.ci_low == r.ci_low else 0
@@ -167,14 +203,33 @@ def plot_all(out, log=print):
         ax.set_yticks(range(len(prot)))
         ax.set_yticklabels([f"{r.case} [{r.protocol}] n={r.n_seeds}" for r in prot.itertuples()], fontsize=8)
         ax.set(xlabel="self-diffusion coefficient D (m$^2$/s), 95 % CI over seeds",
-               title="long-time diffusion coefficient")
+               title="D of each case alone (unpaired intervals)")
         ax.grid(True, axis="x", alpha=0.3)
         h, l = ax.get_legend_handles_labels()
         if h:
             ax.legend(fontsize=7)
+        if paired is not None:
+            _plot_paired(axes[0, 1], paired)
         fig.tight_layout()
         fig.savefig(os.path.join(out, "diffusion.png"), dpi=120)
         plt.close(fig)
         made.append("diffusion.png")
     log(f"[plot] wrote {', '.join(made)} in {out}")
+    for fig_name, why in not_drawn(out).items():
+        log(f"[plot] {fig_name} not drawn: {why}")
     return made
+
+
+def _plot_paired(ax, paired):
+    """D_case / D_exact - 1 per case, with the 95 % t-interval of the differences paired by seed."""
+    for i, r in enumerate(paired.itertuples()):
+        st = _style(r.case, r.protocol)
+        ok = r.relative_ci_low == r.relative_ci_low
+        ax.errorbar([100 * r.relative], [i], fmt="o", color=st["color"], capsize=4,
+                    xerr=[[100 * (r.relative - r.relative_ci_low)], [100 * (r.relative_ci_high - r.relative)]] if ok else None)
+    ax.axvline(0, color="k", lw=0.8)
+    ax.set_yticks(range(len(paired)))
+    ax.set_yticklabels([f"{r.case} [{r.protocol}] n={r.n_seeds}" for r in paired.itertuples()], fontsize=8)
+    ax.set(xlabel="D$_{case}$ / D$_{exact}$ - 1 (%), 95 % t-interval over seed pairs",
+           title="each case against exact, paired by seed")
+    ax.grid(True, axis="x", alpha=0.3)

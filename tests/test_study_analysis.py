@@ -96,6 +96,35 @@ def test_analysis_recovers_a_known_D_and_a_known_difference(tmp_path):
     assert 1 / 1.6 < ex.diffusion_stderr_run.mean() / ex.diffusion_coefficient.std(ddof=1) < 1.6
 
 
+def test_a_studys_own_page_states_its_table_and_says_why_a_figure_is_missing(tmp_path):
+    """The page and the figures of a study of its own (no spheres case): its name in the titles, the
+    paired interval of diff_D.csv on the page, and ratio.png reported as not drawn, with the reason."""
+    from studies import gas_plots, study_page
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3, 4]}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(7)
+    for run in S.runs(sp):
+        fr, v0 = frames_of(rng, 216, 400.0, 0.25, 1.0 if run["case"] == "exact" else 1.1)
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    analysis.analyze(sp, log=lambda *a: None)
+    said = []
+    made = gas_plots.plot_all(rdir, log=said.append)
+    assert "ratio.png" not in made and {"fig2_msd.png", "diffusion.png"} <= set(made)
+    assert any("ratio.png not drawn: the paper's ratio needs the spheres case" in m for m in said)
+    page = Path(study_page.write(rdir, log=lambda s: None)).read_text()
+    name = sp["study"]["name"]
+    assert page.startswith(f"# {name}\n")
+    d = pd.read_csv(Path(rdir) / "diff_D.csv").set_index("case").loc["uncorrected"]
+    row = (f"| uncorrected | paired | 4 | {100 * d.relative:+.2f} % | "
+           f"[{100 * d.relative_ci_low:+.2f} %, {100 * d.relative_ci_high:+.2f} %] |")
+    assert row in page
+    assert "*ratio.png is not drawn: the paper's ratio needs the spheres case" in page
+    assert "![diffusion.png](diffusion.png)" in page and "![ratio.png]" not in page
+    params = json.loads((Path(rdir) / "params.json").read_text())
+    assert gas_plots.msd_title(params) == f"{name}: mean-square displacement"
+    assert "Fig. 2" in gas_plots.msd_title(dict(params, study={"name": "paper"}))
+
+
 def test_effects_table_pairs_by_seed(tmp_path, monkeypatch):
     sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": list(range(1, 9))}])
     rdir = engine.results_dir(sp)
@@ -813,6 +842,8 @@ def test_studies_run_skips_the_analysis_only_when_a_drain_left_runs_to_do(tmp_pa
     monkeypatch.setattr(analysis, "analyze", lambda spec: analysed.append(1))
     from studies import gas_plots
     monkeypatch.setattr(gas_plots, "plot_all", lambda rdir_: None)
+    from studies import study_page
+    monkeypatch.setattr(study_page, "write", lambda rdir_: None)
     (Path(rdir) / runner.DRAIN).write_text("")
     for status, code, n in (("todo", 1, 0), ("done", 0, 1)):
         monkeypatch.setattr(engine, "sweep", lambda spec, **kw: {"k": {"status": status}})
