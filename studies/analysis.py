@@ -131,6 +131,10 @@ def analyze(spec, log=print):
     rows_m, recs = load_records(spec)
     t_eq = a["t_eq"]
     missing = [r["name"] for r in rows_m.values() if r["status"] not in ("done", "flagged")]
+    rerun = [r["name"] for r in rows_m.values() if str(r.get("error", "")).startswith("rerun:")]
+    if rerun:
+        log(f"[analyze] {len(rerun)} runs need a rerun for this analysis (their records lack a window it reads; "
+            f"python -m studies sweep {spec.get('path', 'SPEC')} reruns them): {', '.join(rerun[:4])}...")
     if missing:
         log(f"[analyze] {len(missing)} runs not finished (analysing the rest): {', '.join(missing[:4])}...")
     runs = [(r, r["name"], r) for r in (recs[k] for k in rows_m if k in recs)]

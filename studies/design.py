@@ -107,12 +107,14 @@ def possible_extra_seeds(spec):
 
 
 def load_records(spec, rdir):
-    """Every finished record of a spec's runs, by key (runs without a record are left out), the
-    seeds the sequential design added included."""
+    """Every finished record of a spec's runs that serves its analysis (:func:`studies.reduce.serves`),
+    by key (runs without one are left out: the driver runs them again), the seeds the sequential
+    design added included."""
     out = {}
+    needs = S.analysis_windows(spec)
     for run in S.runs(spec, extra_seeds=possible_extra_seeds(spec)):
         path = red.record_path(rdir, run)
-        if red.is_complete(path, run["key"]):
+        if red.is_complete(path, run["key"], needs):
             with open(path) as f:
                 out[run["key"]] = json.load(f)
     return out

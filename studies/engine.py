@@ -23,6 +23,7 @@ import os
 import shutil
 import time
 
+from . import reduce as red
 from . import runner
 from . import spec as S
 
@@ -51,10 +52,9 @@ def write_manifest(rdir, rows):
 
 
 def settings_of(spec, rdir, yade="auto", keep_raw=False, scratch=None, timeout=None):
-    a, r = spec["analysis"], spec["run"]
-    cuts = ({float(a["t_eq"])} if a["t_eq"] != "auto" else {0.0}) | {float(c) for c in a["cuts"]} \
-        | {float(s[0]) for s in a["sensitivity"]}
-    return {"results_dir": rdir, "yade": yade, "cuts": sorted(cuts) or [0.0], "max_lag": a["max_lag"],
+    r = spec["run"]
+    cuts, max_lag = S.analysis_windows(spec)
+    return {"results_dir": rdir, "yade": yade, "cuts": cuts, "max_lag": max_lag,
             "energy_tol": r["energy_tol"], "momentum_tol": r["momentum_tol"],
             "progress_period": r["progress_period"], "keep_raw": keep_raw, "scratch": scratch,
             "timeout": timeout}
@@ -74,15 +74,20 @@ def _row(run, old=None):
 def reconcile(spec, runs, rdir):
     """Manifest rows of the spec's runs: records on disk win (a record is a finished run)."""
     old = read_manifest(rdir)
+    needs = S.analysis_windows(spec)
     rows = {}
     for run in runs:
         row = _row(run, old.get(run["key"]))
         path = runner.record_path(rdir, run)
-        if runner.is_complete(path, run["key"]):
+        if runner.is_complete(path, run["key"], needs):
             if row["status"] not in ("done", "flagged"):
                 with open(path) as f:
                     rec = json.load(f)
                 _fill_done(row, rec, rdir)
+        elif runner.is_complete(path, run["key"]):
+            # a finished run whose record lacks a window the analysis now reads: run it again (its
+            # record stays until the new one, which keeps every window of the old, replaces it)
+            row.update(status="todo", record="", error=f"rerun: {red.why_not_served(path, needs)}")
         elif row["status"] in ("done", "flagged"):
             row.update(status="todo", record="")      # record deleted: run again
         rows[run["key"]] = row

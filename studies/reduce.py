@@ -102,14 +102,57 @@ def reduce_run(frames, run_input, cuts, max_lag_s, energy_tol, momentum_tol):
     return out
 
 
-def is_complete(path, key):
-    """True if ``path`` is a finished reduced record of run ``key``."""
+def _read(path):
     try:
         with open(path) as f:
-            rec = json.load(f)
+            return json.load(f)
     except (OSError, ValueError):
-        return False
-    return rec.get("key") == key and rec.get("reduction_version") == REDUCTION_VERSION
+        return None
+
+
+def is_complete(path, key, needs=None):
+    """True if ``path`` is a finished reduced record of run ``key`` (and, with ``needs`` = (cuts,
+    max_lag), one that :func:`serves` that analysis)."""
+    rec = _read(path)
+    ok = isinstance(rec, dict) and rec.get("key") == key and rec.get("reduction_version") == REDUCTION_VERSION
+    return ok and (needs is None or serves(rec, *needs))
+
+
+def _missing_windows(rec, cuts, max_lag):
+    """The cuts (s) of ``cuts`` whose window the record lacks or holds with VACF lags short of
+    ``max_lag`` (as far as the window reaches)."""
+    have = {round(w["t_cut"], 9): w for w in rec.get("windows", [])}
+    out = []
+    for c in cuts:
+        w = have.get(round(float(c), 9))
+        if w is None:
+            out.append(float(c))
+            continue
+        reach = min(max_lag, (w["n_frames"] - 2) * w["frame_interval"])
+        if w["vacf_lag_s"][-1] < reach - 0.5 * w["frame_interval"]:
+            out.append(float(c))
+    return out
+
+
+def serves(rec, cuts, max_lag):
+    """True if the record stores a window from every cut (s) of ``cuts``, each with VACF lags up to
+    ``max_lag`` (s) or as far as the window reaches: what an analysis with those settings reads."""
+    return not _missing_windows(rec, cuts, max_lag)
+
+
+def why_not_served(path, needs):
+    """One line: which windows the record at ``path`` lacks for ``needs`` = (cuts, max_lag)."""
+    rec = _read(path) or {}
+    stored = [w["t_cut"] for w in rec.get("windows", [])]
+    return (f"the analysis reads windows from t = {_missing_windows(rec, *needs)} s with lags to {needs[1]:g} s; "
+            f"the record stores windows from {stored} s")
+
+
+def stored_windows(path):
+    """(cuts, max_lag) a finished record at ``path`` stores, or ([], 0.0)."""
+    rec = _read(path) or {}
+    ws = rec.get("windows", [])
+    return [w["t_cut"] for w in ws], max([w["vacf_lag_s"][-1] for w in ws] or [0.0])
 
 
 def record_path(results_dir, run):

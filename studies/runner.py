@@ -175,10 +175,14 @@ def execute(run, settings):
     ``keep_raw`` (bool), ``scratch`` (directory for attempt files), ``timeout`` (s or None).
     """
     out = record_path(settings["results_dir"], run)
-    if is_complete(out, run["key"]):
+    if is_complete(out, run["key"], (settings["cuts"], settings["max_lag"])):
         with open(out) as f:
             rec = json.load(f)
         return _summary(rec, reused=True)
+    if is_complete(out, run["key"]):            # a record for another analysis: the new one keeps its windows too
+        old_cuts, old_lag = red.stored_windows(out)
+        settings = dict(settings, cuts=sorted(set(settings["cuts"]) | set(old_cuts)),
+                        max_lag=max(settings["max_lag"], old_lag))
     params = run["params"]
     # the progress file marks the run as started (a draining driver cancels only runs that have
     # none, studies.engine.sweep); written first, then the drain file checked, so that a run the

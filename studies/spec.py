@@ -157,6 +157,17 @@ def _table(where, d, keys):
     return out
 
 
+def analysis_windows(spec):
+    """(cuts, max_lag): the analysis windows' start times (s) a spec's analysis reads from every run
+    record (a numeric ``t_eq``, every ``cuts`` entry and every sensitivity ``t_eq``; 0 for "auto") and
+    the VACF lags (s) it needs in each.  A record that lacks one cannot serve the analysis
+    (:func:`studies.reduce.serves`): the driver runs it again."""
+    a = spec["analysis"]
+    cuts = ({float(a["t_eq"])} if a["t_eq"] != "auto" else {0.0}) | {float(c) for c in a["cuts"]} \
+        | {float(s[0]) for s in a["sensitivity"]}
+    return sorted(cuts), float(a["max_lag"])
+
+
 def results_dir(spec):
     """Absolute path of a loaded spec's results directory (``study.results``, relative to the repository)."""
     d = spec["study"]["results"]

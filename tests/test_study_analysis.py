@@ -1011,7 +1011,7 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     from studies import rates
 
     sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": list(range(1, 7))}],
-                  start="equipartition")
+                  start="equipartition", max_lag=60.0)     # the lags the records below store
     rng = np.random.default_rng(41)
     truth = {"exact": (25.0, 1.0), "uncorrected": (27.5, 0.9)}          # tau, <v^2> scale
     for run in S.runs(sp):

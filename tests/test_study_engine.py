@@ -238,6 +238,38 @@ def test_tiny_study_on_a_local_cluster_of_2_workers_then_analysis(tmp_path):
     assert "6 already complete, 0 to do" in r.stdout
 
 
+def test_a_changed_t_eq_reruns_the_runs_whose_records_lack_its_window_and_the_analysis_then_works(tmp_path):
+    """Changing analysis.t_eq to a time no record stores a window from: the analysis does not fail,
+    the driver runs those runs again by itself (nothing deleted by hand), and the new records keep
+    the old windows too, so the earlier analysis still works."""
+    from studies import analysis
+    raw = _raw_tiny(tmp_path, 8.0, [1], cases=("exact", "uncorrected"))
+    p = _write_spec(tmp_path, raw)
+    subprocess.run(_driver(p), cwd=ROOT, check=True, capture_output=True, timeout=600)
+    analysis.analyze(S.load(str(p)), log=lambda s: None)
+    raw["analysis"]["t_eq"] = 1.5                          # no record has a window from 1.5 s
+    p = _write_spec(tmp_path, raw)
+    msgs = []
+    analysis.analyze(S.load(str(p)), log=msgs.append)      # no KeyError: the runs are reported, not read
+    assert any("2 runs need a rerun" in m for m in msgs), msgs
+    st = subprocess.run([sys.executable, "-m", "studies", "status", str(p)], cwd=ROOT, capture_output=True,
+                        text=True, timeout=120)
+    assert "todo 2" in st.stdout
+    r = subprocess.run(_driver(p), cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0 and "0 already complete, 2 to do" in r.stdout, r.stdout[-2000:]
+    for f in (tmp_path / "results" / "runs").glob("*.json"):
+        cuts = sorted(w["t_cut"] for w in json.loads(f.read_text())["windows"])
+        assert cuts == [0.4, 1.5], cuts                    # the old window (t_eq 0.4) kept, the new one added
+    msgs = []
+    analysis.analyze(S.load(str(p)), log=msgs.append)
+    assert not any("need a rerun" in m for m in msgs), msgs
+    s = pd.read_csv(tmp_path / "results" / "summary.csv")
+    assert set(s.case) == {"exact", "uncorrected"} and (s.n_seeds == 1).all()
+    raw["analysis"]["t_eq"] = 0.4                          # back: served by the new records, nothing to run
+    r = subprocess.run(_driver(_write_spec(tmp_path, raw)), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "2 already complete, 0 to do" in r.stdout
+
+
 def test_flagged_run_is_excluded_from_the_analysis(tmp_path):
     p = _write_spec(tmp_path, _raw_tiny(tmp_path, 8.0, [1]))
     subprocess.run(_driver(p), cwd=ROOT, check=True, capture_output=True, timeout=600)
