@@ -8,7 +8,11 @@
 # The root lives outside the repository, in $CLUMPPROPS_DEBIAN13 (default
 # /var/cache/clumpprops/debian13).  Every `run` uses a private mount namespace
 # (unshare -m), so its bind mounts (/dev, /proc, /sys, the repository, /tmp) vanish
-# when it exits and any number of runs can go side by side.  Needs root.
+# when it exits and any number of runs can go side by side.  `build` needs root (debootstrap,
+# apt); `run` does not: without root it enters the root through an unprivileged user namespace
+# (unshare -r: the user is root only inside it), as on any kernel that allows them (Debian's do).
+# A user without root therefore needs the root built once by someone with root, at the path
+# $CLUMPPROPS_DEBIAN13 names.
 set -euo pipefail
 ROOT="${CLUMPPROPS_DEBIAN13:-/var/cache/clumpprops/debian13}"
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
@@ -31,7 +35,10 @@ in_root() {
   # run "$@" chrooted into ROOT with /dev, /proc, /sys, /tmp and the repository mounted, in a
   # private mount namespace (nothing stays mounted afterwards)
   local wd="${WORKDIR:-/repo}"
-  ${EXEC:-} unshare -m --propagation private bash -s "$ROOT" "$REPO" "$wd" "$@" <<'EOS'
+  # without root: a user namespace mapping the user to root, and a PID namespace so that /proc mounts
+  local ns=(unshare -m --propagation private)
+  [ "$(id -u)" -eq 0 ] || ns=(unshare -r -m -p -f --propagation private)
+  ${EXEC:-} "${ns[@]}" bash -s "$ROOT" "$REPO" "$wd" "$@" <<'EOS'
 set -e
 ROOT="$1"; REPO="$2"; WD="$3"; shift 3
 mount --rbind /dev "$ROOT/dev"
@@ -70,7 +77,7 @@ build() {
 case "${1:-}" in
   build) build ;;
   path) echo "$ROOT" ;;
-  run) shift; need_root; [ -f "$STAMP" ] || { echo "[debian13] no root at $ROOT: run scripts/debian13.sh build" >&2; exit 1; }
+  run) shift; [ -f "$STAMP" ] || { echo "[debian13] no Debian 13 root at $ROOT: scripts/debian13.sh build makes it (as root, once); without root, ask someone with root to build it, or set CLUMPPROPS_DEBIAN13 to one that exists" >&2; exit 1; }
        EXEC=exec in_root "$@" ;;   # exec all the way down: a signal to this process reaches YADE
   *) sed -n '2,12p' "$0"; exit 2 ;;
 esac

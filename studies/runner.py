@@ -90,8 +90,8 @@ def yade_command(wanted, setting="auto"):
         seen.append(f"{' '.join(cmd)} -> {v}")
         if _matches(v, wanted):
             return cmd, chroot, v
-    raise RunError(f"no YADE {wanted} found ({'; '.join(seen)}); for 2025.2 on Debian 12 run "
-                   f"scripts/debian13.sh build, or pass --yade")
+    raise RunError(f"no YADE {wanted} found ({'; '.join(seen)}); for 2025.2 on Debian 12, scripts/debian13.sh build "
+                   f"makes a Debian 13 root (as root, once; runs in it need no root), or pass --yade a YADE 2025.2 command")
 
 
 def _die_with_parent():
