@@ -108,7 +108,15 @@ class _Y:
     @classmethod
     def load(cls):
         if not cls._loaded:
-            import yade  # noqa: F401  (initialises YADE on a plain import)
+            try:
+                import yade  # noqa: F401  (initialises YADE on a plain import)
+            except ModuleNotFoundError as e:
+                if e.name != "yade":
+                    raise
+                raise ModuleNotFoundError(
+                    "clumpprops.yade needs YADE, which is not on PyPI: install Debian's or Ubuntu's `yade` package "
+                    "and run with its Python (`yade -x script.py`, or /usr/bin/python3 with YADE's py folder on "
+                    "sys.path; docs/yade_adapter.md)", name="yade") from None
             from yade import wrapper
             from yade.minieigenHP import Matrix3, Quaternion, Vector3
 

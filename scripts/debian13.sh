@@ -18,7 +18,7 @@ ROOT="${CLUMPPROPS_DEBIAN13:-/var/cache/clumpprops/debian13}"
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
 # Debian packages inside the root: YADE 2025.2 and the project's Python stack (Python 3.13, numpy 2)
 PKGS="yade python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis \
-python3-mpmath python3-distributed python3-pybind11 python3-dev g++ python3-setuptools git ca-certificates"
+python3-mpmath python3-distributed python3-jinja2 python3-pybind11 python3-dev g++ python3-setuptools git ca-certificates"
 STAMP="$ROOT/.clumpprops-ready"
 
 need_root() { [ "$(id -u)" -eq 0 ] || { echo "[debian13] needs root (debootstrap, chroot)" >&2; exit 1; }; }

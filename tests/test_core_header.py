@@ -11,8 +11,11 @@ import numpy as np
 import pytest
 
 import clumpprops as cp
+import clumpprops.core  # noqa: F401  (cp.core)
 
-HPP = Path(__file__).resolve().parent.parent / "clumpprops" / "core" / "clumpprops.hpp"
+# the header as the package ships it (beside the compiled core): the tree's in a checkout, the
+# installed one when the tests run against a wheel
+HPP = Path(cp.core.__file__).resolve().parent / "clumpprops.hpp"
 PROGRAM = r"""
 #include "clumpprops.hpp"
 #include <cstdio>

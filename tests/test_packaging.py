@@ -1,0 +1,54 @@
+"""The package as users get it: one version everywhere, the files a build needs in the sdist and
+nothing of the studies, and a clear line where YADE is missing."""
+import re
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+
+import pytest
+
+import clumpprops
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_version_is_the_same_in_the_package_its_metadata_and_the_command_line():
+    assert metadata.version("clumpprops") == clumpprops.__version__
+    out = subprocess.run([sys.executable, "-m", "clumpprops", "--version"], capture_output=True, text=True).stdout
+    assert out.split() == ["clumpprops", clumpprops.__version__]
+    cff = ROOT / "CITATION.cff"
+    if cff.exists():                             # a checkout (the sdist has no CITATION.cff test to run)
+        assert re.search(r'^version: "([^"]+)"', cff.read_text(), re.M).group(1) == clumpprops.__version__
+
+
+def test_the_compiled_core_and_its_header_are_installed_beside_the_package():
+    import clumpprops.core._core as core
+    pkg = Path(clumpprops.__file__).parent
+    assert Path(core.__file__).parent == pkg / "core"
+    assert (pkg / "core" / "clumpprops.hpp").exists()
+
+
+def test_without_yade_the_adapter_says_in_one_line_how_to_get_it():
+    code = ("import sys; sys.modules['yade'] = None\n"          # YADE absent, even where it is installed
+            "import clumpprops.yade as cy\n"
+            "try:\n    cy.append_clump([[0, 0, 0]], [1.0])\n"
+            "except ModuleNotFoundError as e:\n    print(e)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout.strip()
+    assert len(out.splitlines()) == 1 and "needs YADE, which is not on PyPI" in out
+
+
+@pytest.mark.skipif(not (ROOT / "MANIFEST.in").exists(), reason="needs the source tree")
+def test_the_sdist_holds_the_core_sources_and_nothing_of_the_studies(tmp_path):
+    build = pytest.importorskip("build")          # noqa: F841  (python -m build, from PyPI)
+    r = subprocess.run([sys.executable, "-m", "build", "--sdist", "--no-isolation", "--outdir", str(tmp_path), str(ROOT)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    import tarfile
+    (sdist,) = tmp_path.glob("clumpprops-*.tar.gz")
+    names = [n.split("/", 1)[1] for n in tarfile.open(sdist).getnames() if "/" in n]
+    for need in ("clumpprops/core/_core.cpp", "clumpprops/core/clumpprops.hpp", "setup.py", "pyproject.toml",
+                 "LICENSE", "README.md", "clumpprops/yade.py"):
+        assert need in names, need
+    assert not [n for n in names if n.split("/")[0] in ("results", "studies", "tests", "benchmarks", "yade_scripts")]
+    assert not [n for n in names if n.endswith(".so")]
