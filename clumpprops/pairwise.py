@@ -169,7 +169,12 @@ def check_no_triple_overlap(sph: Spheres, a, b, D, e):
 
 
 def _distance_to_overlap(sph: Spheres, p, j, k, D, e):
-    """Distance from points p (T,3) to the overlap region of balls j, k (T,)."""
+    """Distance from points p (T,3) to the overlap region of balls j, k (T,).
+
+    Where one ball lies in the other (identical and coincident balls included) the region is the
+    smaller ball, whatever the order of j and k.  Otherwise the nearest point is that of one ball
+    if it lies in the other ball (up to a relative 1e-12 of the radius: two balls that differ by
+    round-off count as each other's region, so the check errs towards a refusal), else on the rim."""
     cj, ck = sph.centers[j], sph.centers[k]
     rj, rk = sph.radii[j], sph.radii[k]
 
@@ -179,16 +184,19 @@ def _distance_to_overlap(sph: Spheres, p, j, k, D, e):
         outside = n > rx
         q = np.where(outside[:, None], cx + v * (rx / np.where(n > 0, n, 1.0))[:, None], p)
         w = q - cy
-        ok = np.einsum("ij,ij->i", w, w) <= ry * ry
+        ok = np.sqrt(np.einsum("ij,ij->i", w, w)) <= ry * (1.0 + 1e-12)
         dist = np.where(outside, n - rx, 0.0)
         return np.where(ok, dist, np.inf)
 
+    big = np.maximum(rj, rk)
+    small = np.minimum(rj, rk)
+    nested = D + small <= big
+    cs = np.where((rj <= rk)[:, None], cj, ck)
+    d0 = np.maximum(np.sqrt(np.einsum("ij,ij->i", p - cs, p - cs)) - small, 0.0)
     d1 = proj_in_other(cj, rj, ck, rk)
     d2 = proj_in_other(ck, rk, cj, rj)
     # rim circle (only for a proper lens)
-    big = np.maximum(rj, rk)
-    small = np.minimum(rj, rk)
-    lens = D + small > big
+    lens = ~nested
     Dl = np.where(lens, D, 1.0)
     delta = rj + rk - D
     l1 = delta * (rk - rj + D) / (2.0 * Dl)
@@ -200,7 +208,7 @@ def _distance_to_overlap(sph: Spheres, p, j, k, D, e):
     npp = np.sqrt(np.einsum("ij,ij->i", vperp, vperp))
     d3 = np.sqrt(vpar**2 + (npp - rho) ** 2)
     d3 = np.where(lens, d3, np.inf)
-    return np.minimum(np.minimum(d1, d2), d3)
+    return np.where(nested, d0, np.minimum(np.minimum(d1, d2), d3))
 
 
 def pairwise_moments(sph: Spheres, check=True):

@@ -1068,9 +1068,20 @@ inline void lens_moments(double ra, double rb, const double* ca, const double* c
   sig_ax = sa - sig_t;
 }
 
-// distance from point p to the overlap region of balls j, k (lens or the smaller ball)
+// distance from point p to the overlap region of balls j, k (lens or the smaller ball).  Where one ball
+// lies in the other (identical and coincident balls included) the region is the smaller ball, whatever
+// the order of j and k.  Otherwise the nearest point is the nearest point of one ball if that lies in the
+// other ball, else on the rim circle; "lies in" allows round-off (a relative 1e-12 of the radius), so
+// that two balls that differ by round-off still count as each other's region: the check then errs
+// towards reporting a triple overlap (a refusal), never towards missing one (a wrong answer).
 inline double distance_to_overlap(const double* p, const double* cj, double rj, const double* ck, double rk, double D,
                                   const double* e) {
+  const double big = std::max(rj, rk), small = std::min(rj, rk);
+  if (D + small <= big) {
+    const double* cs = rj <= rk ? cj : ck;
+    double v[3] = {p[0] - cs[0], p[1] - cs[1], p[2] - cs[2]};
+    return std::max(std::sqrt(dot3(v, v)) - small, 0.0);
+  }
   auto proj_in_other = [&](const double* cx, double rx, const double* cy, double ry) {
     double v[3] = {p[0] - cx[0], p[1] - cx[1], p[2] - cx[2]};
     const double nv = std::sqrt(dot3(v, v));
@@ -1078,13 +1089,12 @@ inline double distance_to_overlap(const double* p, const double* cj, double rj, 
     double q[3];
     for (int x = 0; x < 3; ++x) q[x] = outside ? cx[x] + v[x] * (rx / (nv > 0.0 ? nv : 1.0)) : p[x];
     double w[3] = {q[0] - cy[0], q[1] - cy[1], q[2] - cy[2]};
-    const bool ok = dot3(w, w) <= ry * ry;
+    const bool ok = std::sqrt(dot3(w, w)) <= ry * (1.0 + 1e-12);
     const double dist = outside ? nv - rx : 0.0;
     return ok ? dist : HUGE_VAL;
   };
   double d = std::min(proj_in_other(cj, rj, ck, rk), proj_in_other(ck, rk, cj, rj));
-  const double big = std::max(rj, rk), small = std::min(rj, rk);
-  if (D + small > big) {
+  {
     const double delta = rj + rk - D;
     const double l1 = delta * (rk - rj + D) / (2.0 * D);
     const double rho = std::sqrt(std::max(l1 * (2.0 * rj - l1), 0.0));
