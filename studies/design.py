@@ -404,8 +404,8 @@ def _reference_rank(p, rp, n):
     (its spread is a pilot's, not two pairs'), then the smallest |ln E/E_ref| (the physics nearest
     the target's), then the smallest |ln T/T_ref| (the least scaling of the spread), then the most
     pairs, then a softer reference (E_ref < E) before a stiffer one at the same distance, then a
-    longer run before a shorter one.  Before the ninth session the most pairs alone decided, so an
-    equal count kept the first reference found even at a farther stiffness."""
+    longer run before a shorter one.  The most pairs alone would keep, on an equal count, the first
+    reference found even at a farther stiffness."""
     e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
     t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
     return (n >= est.MIN_PAIRS, -round(abs(float(np.log(e / e_ref))), 12), -round(abs(float(np.log(t / t_ref))), 12),

@@ -873,7 +873,7 @@ def sphere_gas_section(lines, sph):
     if not sph:
         lines += ["No sphere-gas runs yet.", ""]
         return
-    if "stderr" in sph[0]:         # tables written before 2026-11-26 divide the runs' interval by the theory
+    if "stderr" in sph[0]:         # a table without the theory's 'stderr' column divides the runs' interval by the theory
         lines += ["The ratios' intervals are Fieller intervals that carry both the runs' error and the theory's "
                   "Monte Carlo error (± one standard error in the theory columns). \"Time step\": the relative "
                   "change of D that the runs' time step makes, from the collision as YADE's leapfrog integrates it "

@@ -79,7 +79,7 @@ LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, Tr
 # [study] schedule: the order runs are queued in.  "in_order": group by group, seed by seed, so a
 # sequential group's added seeds go before every later group's runs (the spec's groups in order of
 # importance).  "round_robin": every group's k-th seed before any group's (k+1)-th, so a study
-# stopped by its budget or a session's end holds an interval for every group (independent questions
+# stopped by its budget or by the machine going down holds an interval for every group (independent questions
 # of similar importance).  Not part of any run key.
 SCHEDULES = ("in_order", "round_robin")
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",

@@ -465,8 +465,8 @@ def test_template_file_is_rotated_into_its_body_frame(tmp_path):
 
 def _initial_conditions_v1(seed, n_particles, box, m_case, m_exact, protocol="paired",
                            energy_per_particle=3.75, gap=0.02, bounding_radius=0.1):
-    """The study's initial conditions as its first version drew them (studies/gas_model.py at
-    commit 6f524aa), copied verbatim apart from the masses passed in: the reference."""
+    """The study's initial conditions as model version 1 draws them (its studies/gas_model.py code,
+    copied verbatim apart from the masses passed in): the reference."""
     rng = np.random.default_rng(seed)
     dmin = 2 * bounding_radius + gap
     pos = np.empty((n_particles, 3))

@@ -1,4 +1,4 @@
-"""scripts/sweep.sh, the sweeps across sessions: ``refresh`` brings a sweep's clone to the committed
+"""scripts/sweep.sh, sweeps that outlive the machine's working period: ``refresh`` brings a sweep's clone to the committed
 HEAD and keeps every finished record it holds, ``collect`` copies new records back and never
 overwrites one, and both refuse to touch a clone whose driver is running.  All in a throwaway
 clone of this repository (nothing here runs YADE)."""
