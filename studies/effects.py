@@ -33,8 +33,18 @@ from .gas_model import CASE_SOURCES
 from . import shapes as shp
 from . import spec as S
 
+# the gas a row was measured in: two rows compare like with like only where these agree
+GAS_COLUMNS = ("n_particles", "volume_fraction", "t_end", "energy_per_particle", "poisson", "density", "n_spheres")
 COLUMNS = ("shape", "overlap", "protocol", "youngs_modulus", "case", "n_pairs", "relative", "relative_ci_low",
-           "relative_ci_high", "mass_error", "k2_error", "yade_version", "rot_algorithm")
+           "relative_ci_high", "mass_error", "k2_error", "yade_version", "rot_algorithm") + GAS_COLUMNS
+
+
+def gas_of(p):
+    """effects.csv's :data:`GAS_COLUMNS` of a run's parameters."""
+    return {"n_particles": int(p["gas"]["n_particles"]), "volume_fraction": float(p["gas"]["volume_fraction"]),
+            "t_end": float(p["run"]["t_end"]), "energy_per_particle": float(p["gas"]["energy_per_particle"]),
+            "poisson": float(p["material"]["poisson"]), "density": float(p["material"]["density"]),
+            "n_spheres": len(p["shape"]["radii"])}
 
 
 def _pair_key(params):
@@ -132,9 +142,11 @@ def _row_key(params):
 
 
 def _visible(p, case, protocol):
-    """What names an effects row in effects.csv: shape, overlap, protocol, Young's modulus, case."""
+    """What names an effects row in effects.csv: shape, overlap, protocol, Young's modulus, case and
+    the gas (:data:`GAS_COLUMNS`)."""
     shape = p["shape"]["definition"]
-    return (shape_name(shape), shape.get("overlap", ""), protocol, p["material"]["youngs_modulus"], case)
+    return (shape_name(shape), shape.get("overlap", ""), protocol, p["material"]["youngs_modulus"], case,
+            *gas_of(p).values())
 
 
 def _differences(a, b, where=""):
@@ -239,7 +251,7 @@ def effect_rows(specs, values=None):
                      "youngs_modulus": p["material"]["youngs_modulus"], "case": case, "n_pairs": n,
                      "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
                      **case_errors(shape, rho, case),
-                     "yade_version": ";".join(sorted(yv)), "rot_algorithm": ";".join(sorted(ra))})
+                     "yade_version": ";".join(sorted(yv)), "rot_algorithm": ";".join(sorted(ra)), **gas_of(p)})
     rows.sort(key=lambda r: (r["shape"], str(r["overlap"]), r["protocol"], r["youngs_modulus"], r["case"]))
     return rows
 

@@ -263,12 +263,6 @@ def validate(raw):
             gd["target"] = t
             if gd["max_seeds"] is None:
                 raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
-        if (gd["n_particles"] not in (None, spec["gas"]["n_particles"]) and spec["study"]["in_results"]
-                and any(c != "spheres" for c in gd["cases"])):
-            raise SpecError(f"{where}.n_particles: results/effects.csv has no column for the size of the gas, so "
-                            f"its clump cases would be published as if they had {spec['gas']['n_particles']}; put "
-                            f"this group in a spec with [study] in_results = false (sphere-only groups may stay: "
-                            f"results/sphere_gas.csv lists n_particles)")
         props = shp.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
         if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
             raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "

@@ -96,6 +96,27 @@ def test_analysis_recovers_a_known_D_and_a_known_difference(tmp_path):
     assert 1 / 1.6 < ex.diffusion_stderr_run.mean() / ex.diffusion_coefficient.std(ddof=1) < 1.6
 
 
+def test_effects_rows_of_two_gases_stay_apart_and_say_which_gas_each_is(tmp_path):
+    """The same shape, case and protocol in two gases (864 and 108 particles) are two rows, each
+    with its own gas columns and its own interval (the +10 % and +20 % their walkers were given)."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3, 4]},
+                             {"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3, 4],
+                              "n_particles": 108}])
+    rdir = engine.results_dir(sp)
+    rng = np.random.default_rng(11)
+    for run in S.runs(sp):
+        small = run["params"]["gas"]["n_particles"] == 108
+        scale = 1.0 if run["case"] == "exact" else (1.2 if small else 1.1)
+        fr, v0 = frames_of(rng, 216, 400.0, 0.25, scale)
+        write_record(rdir, run, fr, v0, [0.0], 100.0)
+    rows = [r for r in effects.effect_rows([sp]) if r["case"] == "uncorrected"]
+    assert sorted(r["n_particles"] for r in rows) == [108, 864]
+    for r in rows:
+        truth = 0.2 if r["n_particles"] == 108 else 0.1
+        assert r["relative_ci_low"] <= truth <= r["relative_ci_high"], r
+        assert set(effects.GAS_COLUMNS) <= set(r) and r["n_spheres"] == 2 and r["volume_fraction"] == 0.001
+
+
 def test_a_studys_own_page_states_its_table_and_says_why_a_figure_is_missing(tmp_path):
     """The page and the figures of a study of its own (no spheres case): its name in the titles, the
     paired interval of diff_D.csv on the page, and ratio.png reported as not drawn, with the reason."""

@@ -150,15 +150,15 @@ def test_run_key_depends_on_physics_not_on_labels_or_order():
     assert {r["key"] for r in S.runs(S.validate(r4))} == set(keys.values())
     r5 = raw()
     r5["groups"][0]["n_particles"] = r5["gas"]["n_particles"] + 1     # another gas: other runs
-    assert r5["study"]["in_results"] is False        # (an in_results spec refuses it for clump cases)
+    assert r5["study"]["in_results"] is False
     g0 = [r for r in S.runs(S.validate(r5)) if r["group"] == 0]
     assert g0 and not set(keys.values()) & {r["key"] for r in g0}
     assert all(r["params"]["gas"]["n_particles"] == r5["gas"]["n_particles"] + 1 for r in g0)
 
 
-def test_n_particles_override_keeps_the_density_and_stays_out_of_the_effects_table():
-    """A group's n_particles grows the box at the spec's volume fraction (L ~ N^(1/3)); with clump
-    cases it is refused in a spec whose runs feed results/effects.csv, which has no size column."""
+def test_n_particles_override_keeps_the_density_and_is_a_gas_of_its_own_in_the_effects_table():
+    """A group's n_particles grows the box at the spec's volume fraction (L ~ N^(1/3)); in a spec
+    whose runs feed results/effects.csv its rows carry their own n_particles (studies.effects.GAS_COLUMNS)."""
     r = raw("sphere_gas_size")
     sp = S.validate(r)
     by_n = {}
@@ -167,10 +167,11 @@ def test_n_particles_override_keeps_the_density_and_stays_out_of_the_effects_tab
             by_n[run["params"]["gas"]["n_particles"]] = S.run_input(run["params"], record=False)["box_length"]
     assert set(by_n) == {108, 288}
     assert by_n[288] / by_n[108] == pytest.approx((288 / 108) ** (1 / 3), rel=1e-12)
-    bad = raw("dimer_paired")                          # its runs feed results/effects.csv
-    bad["groups"][0]["n_particles"] = 108
-    with pytest.raises(S.SpecError, match="groups.0..n_particles: results/effects.csv has no column"):
-        S.validate(bad)
+    other = raw("dimer_paired")                        # its runs feed results/effects.csv
+    other["groups"][0]["n_particles"] = 108
+    sp = S.validate(other)
+    from studies import effects
+    assert {effects.gas_of(r["params"])["n_particles"] for r in S.runs(sp) if r["group"] == 0} == {108}
 
 
 def test_legacy_dt_keeps_the_earlier_seeds_runs_and_raises_the_rest():
