@@ -1005,8 +1005,36 @@ def hard_sphere_md_section(lines, entries, sph=(), vacf_shape=None):
     lines.append("")
 
 
+def readable_specs():
+    """(specs, failures): the headline's specs (:data:`studies.effects.HEADLINE`) whose spec loads
+    and whose records can be read and planned, and [(name, one-line error)] of the others, so that one
+    broken study is reported in its own section and never stops the report of the rest.  Each spec is
+    tried alone first (its records read and paired once more than the report needs: seconds, for a
+    report that never stops on one study)."""
+    specs, failures = [], []
+    for name in effects.HEADLINE:
+        try:
+            sp = effects.results_specs(names=(name,))[0]
+            planned([sp])
+            effects.paired_values([sp])
+        except (ValueError, KeyError, OSError) as e:        # SpecError is a ValueError
+            failures.append((name, f"{type(e).__name__}: {e}".splitlines()[0]))
+            continue
+        specs.append(sp)
+    return specs, failures
+
+
+def failures_section(lines, failures):
+    """The studies the report could not read, each with its error (nothing when there is none)."""
+    if not failures:
+        return
+    lines += ["## Studies not reported", "",
+              "These studies of the programme could not be read; every other section leaves them out:", ""]
+    lines += [f"* `{name}`: {err}" for name, err in failures] + [""]
+
+
 def build():
-    specs = effects.results_specs()
+    specs, failures = readable_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
     collected = effects.collect(specs, [p.records for p in plans])
     values = effects.paired_values(specs, collected)
@@ -1020,6 +1048,7 @@ def build():
     figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
     maps = effects_plots.read_collision_maps(RESULTS)
     share = paper_share(specs, values=values)
+    failures_section(lines, failures)
     lines += plain_words(rows, maps, share)
     answers_section(lines, plans, sph, rows, maps, share)
     fig2_section(lines)

@@ -538,3 +538,23 @@ def test_report_help_prints_usage_and_writes_nothing(monkeypatch, capsys):
     with pytest.raises(SystemExit) as e:
         report.main(["--bogus"])
     assert e.value.code == 2
+
+
+def test_a_broken_study_is_reported_in_its_own_section_and_the_others_still_are(results_copy, monkeypatch):
+    """A headline study whose spec no longer loads (here: a bad spec file) does not stop the report:
+    its error has its own section, and the other studies' answers are still there."""
+    import shutil as sh
+    from studies import effects
+    specs = results_copy.parent / "specs"
+    sh.copytree(S.SPEC_DIR, specs)
+    bad = specs / "shapes.toml"
+    bad.write_text(bad.read_text().replace("volume_fraction = 0.001", "volume_fraction = 0.7"))
+    monkeypatch.setattr(S, "SPEC_DIR", str(specs))
+    text = report.build()
+    assert "## Studies not reported" in text
+    assert "* `shapes`: SpecError:" in text and "cannot be placed" in text
+    assert "## The answers so far" in text
+    assert "uncorrected vs exact (paired protocol, `dimer_paired`)" in text
+    shapes = set(pd.read_csv(results_copy / "effects.csv")["shape"])
+    assert "tetrahedron" not in shapes and "dimer" in shapes          # only the broken study's rows are gone
+    assert "shapes" in effects.HEADLINE
