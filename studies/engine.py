@@ -90,6 +90,8 @@ def reconcile(spec, runs, rdir):
             row.update(status="todo", record="", error=f"rerun: {red.why_not_served(path, needs)}")
         elif row["status"] in ("done", "flagged"):
             row.update(status="todo", record="")      # record deleted: run again
+        if row["status"] == "running" and runner.in_flight(rdir, run["key"]) is None:
+            row["status"] = "todo"                    # its attempt is gone (a killed worker or driver)
         rows[run["key"]] = row
     return rows
 
@@ -197,10 +199,17 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     t_start = time.time()
     n_ok = n_flag = n_fail = n_sub = n_cancel = 0
     attempted = set()
+    expected = {}             # run key -> expected wall seconds (the cost model), for the ETAs
+    first = True
     try:
         while True:
             runs, _ = _plan(spec, rdir, log)
             rows = reconcile(spec, runs, rdir)
+            if first:         # attempts a killed driver's workers started and nobody counted
+                for r in runs:
+                    rows[r["key"]]["attempts"] = int(rows[r["key"]]["attempts"] or 0) + runner.take_starts(rdir, r["key"])
+                runner.clean_scratch(runner.scratch_root_of({"scratch": scratch}))
+                first = False
             todo = [r for r in runs if rows[r["key"]]["status"] in ("todo", "failed")
                     and int(rows[r["key"]]["attempts"]) < max_att and r["key"] not in attempted]
             given_up = [r for r in runs if rows[r["key"]]["status"] == "failed"
@@ -230,6 +239,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
 
             def submit(batch):
                 nonlocal n_sub
+                expected.update(_expected_walls(spec, rdir, batch))
                 for run in batch:
                     f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
                                       pure=False, priority=_priority(run, schedule), retries=0)
@@ -240,8 +250,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 log(f"[study] {len(batch)} runs submitted to {scheduler or f'a LocalCluster of {workers} worker(s)'}")
 
             submit(todo)
-            sim_total = sum(r["params"]["run"]["t_end"] for r in todo)
-            sim_done, last = 0.0, time.time()
+            last = time.time()
             sequential = any(g.get("target") for g in spec["groups"])
             while pending:
                 deadline = runner.drain_deadline(rdir)
@@ -274,8 +283,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     if isinstance(summ, dict) and summ.get("drained"):
                         n_cancel += 1        # began after the drain and did nothing: it stays to do
                         continue
-                    row["attempts"] = int(row["attempts"] or 0) + 1
-                    sim_done += run["params"]["run"]["t_end"]
+                    row["attempts"] = int(row["attempts"] or 0) + max(1, runner.take_starts(rdir, run["key"]))
                     try:
                         if err is not None:
                             raise err
@@ -314,11 +322,12 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     write_manifest(rdir, [rows[r["key"]] for r in runs])
                     if new:
                         submit(new)
-                        sim_total += sum(r["params"]["run"]["t_end"] for r in new)
+                if _mark_running(rdir, rows, [futs[f] for f in pending]):
+                    write_manifest(rdir, [rows[r["key"]] for r in runs])
                 now = time.time()
                 if pending and now - last >= progress_every:
                     last = now
-                    log(_progress_line(rdir, futs, pending, sim_done, sim_total, now - t_start,
+                    log(_progress_line(rdir, futs, pending, expected, n_workers(client, workers), now - t_start,
                                        len(futs) - len(pending) - n_cancel, len(futs) - n_cancel))
             if draining:
                 write_manifest(rdir, [rows[r["key"]] for r in runs])
@@ -334,6 +343,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             client.close()
         if cluster is not None:
             cluster.close()
+        runner.clean_scratch(runner.scratch_root_of({"scratch": scratch}))     # a killed attempt's folders
         fcntl.flock(lock, fcntl.LOCK_UN)
         lock.close()
     return rows
@@ -361,18 +371,57 @@ def _priority(run, schedule="in_order"):
     return -(int(run["group"]) * 10**7 + int(run["seed"]) * 10)
 
 
-def _progress_line(rdir, futs, pending, sim_done, sim_total, elapsed, n_done, n_all):
-    parts, sim_now = [], sim_done
+def _expected_walls(spec, rdir, runs):
+    """{run key: expected wall seconds} from the study's own like runs, else the cost model
+    (:func:`studies.plan.estimate`); what the ETAs start from before a run has measured its pace."""
+    from . import design, plan
+    own = design.load_records(spec, rdir)
+    per = plan.seconds_per_body_step(plan.committed_records())
+    return {r["key"]: plan.estimate(r["params"], own, per)[0] for r in runs}
+
+
+def remaining_s(expected_s, progress, now=None):
+    """Expected wall seconds left of one run: the cost model's ``expected_s`` for the part not done
+    until a tenth of the run is done, then the run's own pace (start-up no longer dominates it)."""
+    if not progress:
+        return expected_s
+    frac = min(max(float(progress["t"]) / float(progress["t_end"]), 0.0), 1.0)
+    ran = (now or time.time()) - float(progress.get("started", progress["wall"]))
+    if frac >= 0.1 and ran > 0:
+        return ran * (1 - frac) / frac
+    return expected_s * (1 - frac) if expected_s == expected_s else float("nan")
+
+
+def n_workers(client, workers):
+    try:
+        return max(1, len(client.scheduler_info()["workers"]))
+    except Exception:  # noqa: BLE001 - a scheduler that does not answer: the asked number
+        return max(1, int(workers or 1))
+
+
+def _mark_running(rdir, rows, runs):
+    """Rows of runs with a live attempt become ``running``, rows whose attempt died ``todo``; True if any changed."""
+    changed = False
+    for run in runs:
+        row = rows[run["key"]]
+        live = runner.in_flight(rdir, run["key"]) is not None
+        if live and row["status"] in ("todo", "failed"):
+            row["status"], changed = "running", True
+        elif not live and row["status"] == "running":
+            row["status"], changed = "todo", True
+    return changed
+
+
+def _progress_line(rdir, futs, pending, expected, n_workers, elapsed, n_done, n_all):
+    parts, left, now = [], 0.0, time.time()
     for f in pending:
         run = futs[f]
-        try:
-            with open(runner.progress_path(rdir, run["key"])) as fh:
-                p = json.load(fh)
-        except (OSError, ValueError):
-            continue
-        sim_now += p["t"]
-        parts.append(f"{run['name'].rsplit('-', 1)[0]} t={p['t']:.0f}/{p['t_end']:.0f} s "
-                     f"{p['steps_per_s']:.0f} steps/s eta {_fmt_s(p['eta_s'])}")
-    eta = elapsed / sim_now * (sim_total - sim_now) if sim_now > 0 else None
+        p = runner.in_flight(rdir, run["key"])
+        rem = remaining_s(expected.get(run["key"], float("nan")), p, now)
+        left += rem
+        if p:
+            parts.append(f"{run['name'].rsplit('-', 1)[0]} t={p['t']:.0f}/{p['t_end']:.0f} s "
+                         f"{p['steps_per_s']:.0f} steps/s eta {_fmt_s(rem)}")
+    eta = left / n_workers if left == left else None
     return (f"[study] {n_done}/{n_all} runs done, {len(parts)} running, {_fmt_s(elapsed)} elapsed, "
             f"study eta {_fmt_s(eta)}" + ("" if not parts else " | " + " | ".join(parts)))

@@ -161,9 +161,91 @@ def progress_path(results_dir, run_key):
 
 def _progress(path, **kw):
     try:
-        write_atomic(path, json.dumps(dict(kw, wall=time.time())))
+        write_atomic(path, json.dumps(dict(kw, wall=time.time(), **_owner())))
     except OSError:
         pass
+
+
+def _owner():
+    """Who writes a progress file or owns a scratch folder: this host and process."""
+    return {"host": socket.gethostname(), "pid": os.getpid()}
+
+
+def is_alive(info, stale_s=120.0):
+    """True while the process that wrote ``info`` (a dict with host, pid and wall) may still run: on
+    this host, while that process exists; on another host, while ``wall`` is under ``stale_s`` old."""
+    if info.get("host") == socket.gethostname() and info.get("pid"):
+        try:
+            os.kill(int(info["pid"]), 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            pass
+        try:                # a killed process its parent has not reaped yet is gone too
+            with open(f"/proc/{int(info['pid'])}/stat") as f:
+                return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+        except (OSError, IndexError):
+            return True
+    return time.time() - float(info.get("wall", 0.0)) < stale_s
+
+
+def in_flight(results_dir, run_key):
+    """The run's progress (a dict) while an attempt of it is alive (:func:`is_alive`), else None."""
+    try:
+        with open(progress_path(results_dir, run_key)) as f:
+            p = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return p if is_alive(p, stale_s=3 * float(p.get("period", 20.0)) + 10.0) else None
+
+
+def starts_path(results_dir, run_key):
+    """One line per start of an attempt of the run (:func:`execute`), until the driver counts them."""
+    return os.path.join(results_dir, ".attempts", run_key)
+
+
+def _count_start(results_dir, run_key):
+    path = starts_path(results_dir, run_key)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "a") as f:
+        f.write(json.dumps(dict(_owner(), wall=time.time())) + "\n")
+
+
+def take_starts(results_dir, run_key):
+    """The number of attempts of the run started since the driver last counted (the scheduler's
+    own retries after a lost worker included); the count is then cleared."""
+    path = starts_path(results_dir, run_key)
+    try:
+        with open(path) as f:
+            n = sum(1 for line in f if line.strip())
+        os.remove(path)
+    except FileNotFoundError:
+        return 0
+    return n
+
+
+def clean_scratch(scratch_root):
+    """Remove the scratch folders of attempts whose process is gone (a killed worker's); returns how many."""
+    n = 0
+    try:
+        names = os.listdir(scratch_root)
+    except FileNotFoundError:
+        return 0
+    for name in names:
+        d = os.path.join(scratch_root, name)
+        try:
+            with open(os.path.join(d, "owner.json")) as f:
+                owner = json.load(f)
+        except (OSError, ValueError):
+            continue
+        if not is_alive(owner, stale_s=float("inf")):
+            shutil.rmtree(d, ignore_errors=True)
+            n += 1
+    return n
+
+
+def scratch_root_of(settings):
+    return settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")
 
 
 def execute(run, settings):
@@ -188,16 +270,22 @@ def execute(run, settings):
     # none, studies.engine.sweep); written first, then the drain file checked, so that a run the
     # driver cancels as queued never starts YADE, even if Dask had already begun it
     prog = progress_path(settings["results_dir"], run["key"])
+    started = time.time()
+    period = settings.get("progress_period", 20.0)
     _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
-              state="starting")
+              state="starting", started=started, period=period)
     if not may_start(run, settings["results_dir"]):
         _remove(prog)
         return {"drained": True}
+    _count_start(settings["results_dir"], run["key"])
     try:
         cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
-        scratch_root = settings.get("scratch") or os.path.join(tempfile.gettempdir(), "clumpprops-runs")
+        scratch_root = scratch_root_of(settings)
+        clean_scratch(scratch_root)                 # what killed attempts left behind
         work = os.path.join(scratch_root, f"{run['name']}-{uuid.uuid4().hex[:8]}")
         os.makedirs(work)
+        with open(os.path.join(work, "owner.json"), "w") as f:
+            json.dump(dict(_owner(), wall=started), f)
     except BaseException:
         _remove(prog)
         raise
@@ -231,7 +319,8 @@ def execute(run, settings):
                 m = re.match(r"PROGRESS t=([\d.]+) t_end=([\d.]+) steps_per_s=(\d+) eta_s=(\d+)", line)
                 if m:
                     t, te, sps, eta = (float(x) for x in m.groups())
-                    _progress(prog, name=run["name"], t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running")
+                    _progress(prog, name=run["name"], t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running",
+                              started=started, period=period)
                 if settings.get("timeout") and time.time() - t0 > settings["timeout"]:
                     os.killpg(p.pid, signal.SIGKILL)
             p.stdout.close()

@@ -8,6 +8,7 @@ needs YADE 2025.2.
 """
 import json
 import re
+import math
 import os
 import shutil
 import signal
@@ -393,13 +394,38 @@ def test_real_dask_cluster_survives_a_killed_worker(tmp_path):
                 break
             time.sleep(0.05)
         time.sleep(0.5)
-        os.killpg(procs[1].pid, signal.SIGKILL)     # worker w0 and its YADE child
+        rdir = str(tmp_path / "results")
+        w0 = procs[1].pid
+        t0 = time.time()
+        while time.time() - t0 < 120:          # a run of w0's in flight, shown as running in the manifest
+            mine = [f.stem for f in prog.glob("*.json") if json.loads(f.read_text() or "{}").get("pid") == w0]
+            m = _manifest(tmp_path)
+            if mine and (m.set_index("key").loc[mine[0], "status"] == "running"):
+                break
+            time.sleep(0.05)
+        assert mine, "no run of worker w0 in flight"
+        killed = mine[0]
+        os.killpg(w0, signal.SIGKILL)     # worker w0 and its YADE child
+        t_kill = time.time()
+        while time.time() - t_kill < 10:       # within seconds its attempt no longer counts as in flight
+            p = runner.in_flight(rdir, killed)
+            if p is None or p["pid"] != w0:
+                break
+            time.sleep(0.2)
+        assert time.time() - t_kill < 10
         out, _ = drv.communicate(timeout=600)
         assert drv.returncode == 0, out[-3000:]
         m = _manifest(tmp_path)
         assert len(m) == 6 and m.key.is_unique and set(m.status) == {"done"}, m
         assert len(list((tmp_path / "results" / "runs").glob("*.json"))) == 6
         assert procs[1].poll() is not None and procs[2].poll() is None
+        attempts = m.set_index("key").attempts
+        assert attempts[killed] == 2 and (attempts.drop(killed) == 1).all(), attempts   # every start counted
+        scratch = runner.scratch_root_of({})
+        left = [d for d in (os.listdir(scratch) if os.path.isdir(scratch) else [])
+                if os.path.exists(os.path.join(scratch, d, "owner.json"))
+                and json.load(open(os.path.join(scratch, d, "owner.json")))["pid"] == w0]
+        assert left == [], left                                                     # the killed attempt's scratch is gone
     finally:
         for q in procs:
             try:
@@ -505,3 +531,25 @@ def test_collider_verlet_distance_is_speed_only(tmp_path):
     assert za["e_elastic"].max() > 0                      # the gas collided
     for k in ("disp", "vel", "e_trans", "e_rot", "e_elastic", "momentum"):
         np.testing.assert_array_equal(za[k], zb[k])
+
+
+def test_the_eta_starts_from_the_cost_model_and_takes_the_runs_own_pace_after_a_tenth():
+    """No wild first ETA: before a tenth of a run is done its remaining time is the cost model's
+    expected time for the part left (start-up does not dominate it); afterwards the run's own pace."""
+    now = 1000.0
+    assert engine.remaining_s(600.0, None, now) == 600.0                       # queued: the model
+    early = {"t": 2.0, "t_end": 400.0, "started": now - 30.0, "wall": now}      # 0.5 % done after a slow start
+    assert engine.remaining_s(600.0, early, now) == pytest.approx(600.0 * (1 - 2.0 / 400.0))
+    later = {"t": 100.0, "t_end": 400.0, "started": now - 200.0, "wall": now}   # a quarter in 200 s
+    assert engine.remaining_s(600.0, later, now) == pytest.approx(600.0)        # 3 quarters at its pace
+    assert math.isnan(engine.remaining_s(float("nan"), early, now))            # no model, no pace yet: unknown
+
+
+def test_the_first_progress_line_of_a_study_states_the_model_eta(tmp_path):
+    """The study ETA of the first line is the cost model's: the expected time of every run left, over the workers."""
+    sp = tiny(tmp_path, cases=("exact", "uncorrected"), seeds=(1, 2))
+    runs = S.runs(sp)
+    futs = {object(): r for r in runs}
+    expected = {r["key"]: 100.0 for r in runs}
+    line = engine._progress_line(str(tmp_path), futs, set(futs), expected, 2, 1.0, 0, len(runs))
+    assert f"study eta {engine._fmt_s(100.0 * len(runs) / 2)}" in line and "0 running" in line
