@@ -1508,9 +1508,7 @@ def erase(body_id, eraseClumpMembers=False):
         if corr is None:
             return _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
         _neutralize(Y, corr)
-        ret = _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
-        if Y.O.bodies[corr.id] is not None:
-            _raw(Y, "erase", corr.id, what=f"clump #{bid}")
+        ret = _erase_clump(Y, bid, [s.id for s in spheres] if eraseClumpMembers else [], corr.id)
         reg.pop(bid, None)
         _save_registry(reg)
         return ret
@@ -1524,7 +1522,7 @@ def erase(body_id, eraseClumpMembers=False):
         c0, v0, w0 = _velocity_field(cb)
         if len(spheres) == 1:  # the last sphere: the clump and its correction go too
             _neutralize(Y, corr)
-            ret = _raw(Y, "erase", cid, True, what=f"clump #{cid}")
+            ret = _erase_clump(Y, cid, [s.id for s in spheres], corr.id)
             reg.pop(cid, None)
             _save_registry(reg)
             return ret
@@ -1534,6 +1532,19 @@ def erase(body_id, eraseClumpMembers=False):
         _apply([_plan_entry(cid)], method)
         return ret
     return _raw(Y, "erase", bid, eraseClumpMembers, what=f"body #{bid}")
+
+
+def _erase_clump(Y, cid, sphere_ids, corr_id):
+    """Erase a corrected clump, its correction and the spheres ``sphere_ids`` (the other members become
+    free).  YADE's own ``erase(clump, eraseClumpMembers=True)`` erases the clump body a second time from
+    inside its loop over the members (when the last member goes) and crashed a test process with a
+    segmentation fault (2023.02a; only after some other tests had run).  So the clump is erased alone
+    (its members become standalone) and then each body by itself."""
+    ret = _raw(Y, "erase", cid, False, what=f"clump #{cid}")
+    for i in [*sphere_ids, corr_id]:
+        if Y.O.bodies[i] is not None:
+            _raw(Y, "erase", i, False, what=f"clump #{cid}")
+    return ret
 
 
 def update_clump_properties(excludeList=(), discretization=5):

@@ -177,3 +177,158 @@ def test_append_clumped_refuses_correction_bodies(scene):
     assert len(O.bodies) == n
     cid, mids = O.bodies.appendClumped(make_spheres(*dimer()), discretization=0)  # spheres: YADE's own, unchanged
     assert O.bodies[cid].state.mass == pytest.approx(2 * PAPER_RHO * 4 / 3 * np.pi * (PAPER_D / 2) ** 3, rel=1e-14)
+
+
+# ---------------------------------------------------------------- deleteClumpMember, deleteClumpBody, clear, replace
+
+
+def trimer(dx=0.0, s=0.03):
+    return np.array([[dx, 0, -s], [dx, 0, s], [dx, s, 0]]), np.array([PAPER_D / 2] * 3)
+
+
+def test_delete_clump_member_keeps_clump_exact(scene):
+    cid, mids = cy.append_clump(make_spheres(*trimer()))
+    corr = cy.correction_id(cid)
+    O.bodies.deleteClumpMember(O.bodies[cid], O.bodies[mids[0]])
+    assert O.bodies[mids[0]] is None and cy.sphere_member_ids(cid) == mids[1:]
+    assert_exact(cid)
+    with pytest.raises(cy.ClumpAdapterError, match=rf"body #{corr} is a clumpprops correction of clump #{cid}"):
+        O.bodies.deleteClumpMember(O.bodies[cid], O.bodies[corr])
+    O.bodies.deleteClumpMember(O.bodies[cid], O.bodies[mids[1]])
+    assert_exact(cid)
+    O.bodies.deleteClumpMember(O.bodies[cid], O.bodies[mids[2]])  # the last sphere takes clump and correction along
+    assert all(O.bodies[i] is None for i in [cid, corr] + mids)
+    assert cy.check().ok and not cy.check().exact
+
+
+def test_delete_clump_member_negative_control(scene):
+    cid, mids = cy.append_clump(make_spheres(*trimer()))
+    with cy.unguarded():
+        O.bodies.deleteClumpMember(O.bodies[cid], O.bodies[mids[0]])
+    assert abs(O.bodies[cid].state.mass / exact_of(cid).mass - 1) > 0.1
+    rep = cy.check()
+    assert [c for c, _ in rep.stale] == [cid] and "fingerprint differs" in rep.stale[0][1]
+
+
+def test_delete_clump_body_leaves_nothing(scene):
+    cid, mids = cy.append_clump(make_spheres(*trimer()))
+    keep, _ = cy.append_clump(make_spheres(*trimer(1.0)))
+    corr = cy.correction_id(cid)
+    O.bodies.deleteClumpBody(O.bodies[cid])
+    assert all(O.bodies[i] is None for i in [cid, corr] + mids)
+    rep = cy.check()
+    assert rep.ok and rep.exact == [keep], str(rep)
+    with cy.unguarded():  # negative control: YADE erases the bodies but the registry keeps the entry
+        O.bodies.deleteClumpBody(O.bodies[keep])
+    assert [c for c, _ in cy.check().orphaned] == [keep]
+
+
+@pytest.mark.parametrize("call", ["clear", "replace"])
+def test_clear_and_replace_forget_the_registry(scene, call):
+    cid, _ = cy.append_clump(make_spheres(*trimer()))
+    if call == "clear":
+        O.bodies.clear()
+    else:
+        O.bodies.replace(make_spheres(*trimer(1.0)))
+    rep = cy.check()
+    assert rep.ok and not rep.orphaned and not rep.exact, str(rep)
+    cid, _ = cy.append_clump(make_spheres(*trimer(2.0)))
+    assert cy.check().exact == [cid]
+    with cy.unguarded():  # negative control: the registry entry outlives its clump
+        getattr(O.bodies, call)(*([] if call == "clear" else [[]]))
+    assert [c for c, _ in cy.check().orphaned] == [cid]
+
+
+def test_guarded_calls_with_keywords_stay_exact(scene):
+    """Each guarded method with YADE's keywords on a corrected clump."""
+    cid, mids = cy.append_clump(make_spheres(*trimer()))
+    O.bodies.releaseFromClump(mids[2], cid, discretization=0)
+    assert_exact(cid)
+    O.bodies.addToClump([mids[2]], cid, discretization=10)
+    assert_exact(cid)
+    O.bodies.updateClumpProperties(excludeList=[], discretization=5)
+    assert_exact(cid)
+    other, omids = cy.append_clump(make_spheres(*trimer(1.0)))
+    O.bodies.erase(other, eraseClumpMembers=True)
+    assert all(O.bodies[i] is None for i in [other] + omids)
+    assert_exact(cid)
+
+
+# ---------------------------------------------------------------- masks
+
+
+def masked_dimer(masks, dx=0.0):
+    c, r = dimer(dx)
+    return [utils.sphere(tuple(x), float(rr), material="mat", mask=m) for x, rr, m in zip(c, r, masks)]
+
+
+def fall(engines, steps=100, dt=1e-4):
+    O.engines = [ForceResetter()] + engines
+    O.dt = dt
+    O.run(steps, True)
+    return steps * dt
+
+
+@pytest.mark.parametrize("route", ["GravityEngine(mask=0b101)", "GravityEngine(mask=0)", "NewtonIntegrator.gravity"])
+def test_masked_gravity_weighs_the_exact_clump(scene, route):
+    """Spheres with masks 0b110 and 0b011 share no bit: GravityEngine(mask=0b101) selects each of them,
+    so it must select the correction too (union of the bits, 0b111) for the clump to fall at g."""
+    cid, _ = cy.append_clump(masked_dimer([0b110, 0b011]))
+    other, _ = cy.append_clump(masked_dimer([0b010, 0b010], dx=1.0))  # selected by no bit of 0b101
+    assert O.bodies[cy.correction_id(cid)].mask == 0b111
+    engines = {"GravityEngine(mask=0b101)": [GravityEngine(gravity=(0, 0, -G), mask=0b101), NewtonIntegrator(damping=0)],
+               "GravityEngine(mask=0)": [GravityEngine(gravity=(0, 0, -G), mask=0), NewtonIntegrator(damping=0)],
+               "NewtonIntegrator.gravity": [NewtonIntegrator(damping=0, gravity=(0, 0, -G))]}[route]
+    t = fall(engines)
+    assert vec(O.bodies[cid].state.vel)[2] == pytest.approx(-G * t, rel=1e-12)
+    assert np.max(np.abs(vec(O.bodies[cid].state.angVel))) < 1e-12
+    v_other = vec(O.bodies[other].state.vel)[2]
+    if route == "GravityEngine(mask=0b101)":
+        assert v_other == 0
+    else:
+        assert v_other == pytest.approx(-G * t, rel=1e-12)
+
+
+def test_masked_gravity_negative_control_common_bits(scene):
+    """With the bits common to both spheres (0) on the correction, GravityEngine(mask=0b101) weighs the
+    spheres only: the dimer falls faster than g by m_spheres / m_exact (the correction's mass is negative)."""
+    cid, mids = cy.append_clump(masked_dimer([0b110, 0b011]))
+    O.bodies[cy.correction_id(cid)].mask = 0b110 & 0b011
+    t = fall([GravityEngine(gravity=(0, 0, -G), mask=0b101), NewtonIntegrator(damping=0)])
+    m_s = sum(O.bodies[i].state.mass for i in mids)
+    assert vec(O.bodies[cid].state.vel)[2] == pytest.approx(-G * t * m_s / O.bodies[cid].state.mass, rel=1e-10)
+    assert m_s / O.bodies[cid].state.mass > 1.1
+
+
+def test_mask_changed_after_build_is_reported_and_repaired(scene):
+    cid, mids = cy.append_clump(masked_dimer([0b001, 0b001]))
+    corr = cy.correction_id(cid)
+    assert cy.check().ok
+    O.bodies[mids[1]].mask = 0b100  # behind the adapter's back
+    rep = cy.check()
+    assert not rep.ok and [c for c, _ in rep.masks] == [cid] and f"cy.correct_clump({cid})" in rep.masks[0][1]
+    assert rep.exact == [cid]  # mass properties are still right
+    with pytest.raises(cy.ClumpAdapterError, match=rf"mask of clump #{cid}"):
+        cy.check(raise_on_error=True)
+    cy.correct_clump(cid)
+    assert O.bodies[corr].mask == 0b101 and cy.check().ok
+
+
+# ---------------------------------------------------------------- negative or zero dynamic mass
+
+
+def test_check_reports_nonpositive_dynamic_mass(scene):
+    cid, mids = cy.append_clump(make_spheres(*dimer()))
+    corr = cy.correction_id(cid)
+    O.materials.append(FrictMat(density=0.0, label="massless"))
+    s0 = O.bodies.append(utils.sphere((2, 0, 0), 0.1, material="massless"))  # dynamic, mass 0
+    wall = O.bodies.append(utils.wall(-1, axis=2))  # not dynamic: mass 0 is fine
+    rep = cy.check()
+    assert [i for i, _ in rep.invalid] == [s0] and "mass 0 kg" in rep.invalid[0][1], str(rep)
+    O.bodies[s0].dynamic = False
+    assert cy.check().ok
+    with cy.unguarded():
+        O.bodies.erase(cid)  # the correction becomes a free dynamic body of negative mass
+    rep = cy.check()
+    assert [i for i, _ in rep.invalid] == [corr] and [i for i, _ in rep.orphaned] == [corr, cid], str(rep)
+    assert wall not in [i for i, _ in rep.invalid]
