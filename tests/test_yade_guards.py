@@ -18,7 +18,7 @@ from _yadehelpers import O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scen
 
 import clumpprops
 from clumpprops import yade as cy
-from yade.wrapper import Body, ForceResetter, FrictMat, GravityEngine, NewtonIntegrator, Shape
+from yade.wrapper import ForceResetter, FrictMat, GravityEngine, NewtonIntegrator
 
 ROOT = Path(__file__).resolve().parents[1]
 G = 9.81
@@ -79,6 +79,12 @@ ABORT_SCRIPT = textwrap.dedent(
             with cy.unguarded():
                 O.bodies.erase(cid)
             O.bodies.addToClump([corr], plain, discretization=0)
+        elif call == "appendClumped_correction_body":  # a body made like a correction, appended as a member
+            from yade.wrapper import Body, Shape
+            b = Body()
+            b.shape, b.bounded, b.material = Shape(), False, O.materials[0]
+            b.state.mass = -1.0
+            O.bodies.appendClumped([utils.sphere((3, 0, 0), 0.0125, material="m"), b], discretization=0)
     try:
         if guarded:
             run()
@@ -88,6 +94,7 @@ ABORT_SCRIPT = textwrap.dedent(
     except cy.ClumpAdapterError as exc:
         print("refused:", exc)
         print("check ok:", cy.check().ok if call != "addToClump_free_correction" else "n/a")
+        print("bodies:", len(O.bodies))
         sys.exit(0)
     print("no error")
     """
@@ -101,7 +108,10 @@ def run_script(tmp_path, guarded, call):
                           capture_output=True, text=True, timeout=120, env=dict(os.environ, OMP_NUM_THREADS="1"))
 
 
-@pytest.mark.parametrize("call", ["clump", "addToClump_free_correction"])
+ABORTING_CALLS = ["clump", "addToClump_free_correction", "appendClumped_correction_body"]
+
+
+@pytest.mark.parametrize("call", ABORTING_CALLS)
 def test_calls_that_abort_yade_are_refused(tmp_path, call):
     p = run_script(tmp_path, True, call)
     assert p.returncode == 0, (p.returncode, p.stdout[-500:], p.stderr[-800:])
@@ -109,9 +119,10 @@ def test_calls_that_abort_yade_are_refused(tmp_path, call):
     assert "correction" in line and len(line.splitlines()) == 1
     if call != "addToClump_free_correction":
         assert "check ok: True" in p.stdout
+    assert "bodies: 9" in p.stdout  # 3 spheres, correction, clump; free sphere; plain clump of 2: nothing added
 
 
-@pytest.mark.parametrize("call", ["clump", "addToClump_free_correction"])
+@pytest.mark.parametrize("call", ABORTING_CALLS)
 def test_calls_that_abort_yade_negative_control(tmp_path, call):
     """The same calls made unguarded: YADE aborts the process (SIGABRT, ``M > 0`` assertion)."""
     p = run_script(tmp_path, False, call)
@@ -166,17 +177,11 @@ def test_clump_negative_control_check_reports_every_state(scene):
     assert "not a sphere (Box)" in dict(rep.stale)[new]
 
 
-def test_append_clumped_refuses_correction_bodies(scene):
-    b = Body()
-    b.shape = Shape()
-    b.bounded = False
-    b.state.mass = -1.0
-    n = len(O.bodies)
-    with pytest.raises(cy.ClumpAdapterError, match=r"O.bodies.appendClumped: item 1 is a clumpprops correction body"):
-        O.bodies.appendClumped([utils.sphere((0, 0, 0), 0.1, material="mat"), b], discretization=0)
-    assert len(O.bodies) == n
-    cid, mids = O.bodies.appendClumped(make_spheres(*dimer()), discretization=0)  # spheres: YADE's own, unchanged
+def test_append_clumped_of_spheres_is_yades_own(scene):
+    cy.append_clump(make_spheres(*dimer(1.0)))  # the guards are installed
+    cid, mids = O.bodies.appendClumped(make_spheres(*dimer()), discretization=0)
     assert O.bodies[cid].state.mass == pytest.approx(2 * PAPER_RHO * 4 / 3 * np.pi * (PAPER_D / 2) ** 3, rel=1e-14)
+    assert cid in cy.check().uncorrected
 
 
 # ---------------------------------------------------------------- deleteClumpMember, deleteClumpBody, clear, replace
