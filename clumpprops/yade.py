@@ -36,7 +36,10 @@ update recompute a clump with whatever members it then has, so the correction wo
 (or the summed mass reach zero and YADE abort).  :func:`release`, :func:`add_to_clump`,
 :func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
 operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
-are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
+are routed through them for corrected clumps, ``deleteClumpMember``/``deleteClumpBody`` through
+:func:`erase`, ``clump``/``appendClumped``/``addToClump`` refuse corrections and corrected clumps
+they cannot keep exact (YADE would abort on ``M > 0`` or leave them stale), and
+``clear``/``replace`` empty the registry (:func:`unguarded` gives YADE's own methods back).  Every
 correction is recorded in ``O.tags["clumpprops.corrections*"]`` (a header and chunks of entries) with a fingerprint of its spheres,
 and :func:`check` verifies the whole scene.
 
@@ -1812,7 +1815,10 @@ def check(rtol=1e-9, raise_on_error=False):
     the library's for the spheres where they are now (relative ``rtol``; clumps corrected with
     ``montecarlo`` are checked for their fingerprint only).  Also reports correction bodies that
     are not in a clump (e.g. left by YADE's own ``erase`` of a corrected clump: a free body of
-    negative mass) and registry entries whose clump is gone or has lost its correction.
+    negative mass), registry entries whose clump is gone or has lost its correction, clumps that
+    hold a correction with no sphere or with a non-sphere member (stale), dynamic bodies outside
+    clumps with a mass or principal moment that is not positive (``invalid``) and corrections whose
+    mask is not the union of their spheres' masks (``masks``).
     ``raise_on_error=True`` raises :class:`ClumpAdapterError` listing them.
     """
     Y = _Y.load()
