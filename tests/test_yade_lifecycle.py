@@ -458,7 +458,7 @@ def test_correction_state_class_negative_control(tmp_path):
 
 
 def test_mask_selected_engines(scene):
-    """The correction carries the bits common to all spheres of its clump: a GravityEngine selecting
+    """The correction carries the union of the mask bits of its spheres: a GravityEngine selecting
     the spheres by mask weighs the correction too (exact weight, no torque); one selecting other
     bodies sees neither."""
     c, r = trimer()
