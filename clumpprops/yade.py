@@ -21,7 +21,7 @@ Its state holds exactly the difference "exact minus summed spheres":
   exact centre of mass equals the exact tensor (eigenvalues may be negative).
 
 Its state is ``material.newAssocState()`` of the spheres' material (CpmState for CpmMat, ...)
-and its ``mask`` the bits common to all its spheres.
+and its ``mask`` the union of its spheres' mask bits.
 
 YADE then computes mass, centre of mass, principal moments and axes itself, so the
 correction is part of the scene: it is saved by ``O.save``/``O.saveTmp``, and a
@@ -36,7 +36,10 @@ update recompute a clump with whatever members it then has, so the correction wo
 (or the summed mass reach zero and YADE abort).  :func:`release`, :func:`add_to_clump`,
 :func:`erase` and :func:`update_clump_properties` neutralise the correction, let YADE do the
 operation and correct the clump again; once this module is used, the same ``O.bodies`` methods
-are routed through them for corrected clumps (:func:`unguarded` gives YADE's own back).  Every
+are routed through them for corrected clumps, ``deleteClumpMember``/``deleteClumpBody`` through
+:func:`erase`, ``clump``/``appendClumped``/``addToClump`` refuse corrections and corrected clumps
+they cannot keep exact (YADE would abort on ``M > 0`` or leave them stale), and
+``clear``/``replace`` empty the registry (:func:`unguarded` gives YADE's own methods back).  Every
 correction is recorded in ``O.tags["clumpprops.corrections*"]`` (a header and chunks of entries) with a fingerprint of its spheres,
 and :func:`check` verifies the whole scene.
 
@@ -570,12 +573,16 @@ def _errors_one(row, mass, com, inertia, scale):
     return e_m, e_c, e_i / max(scale, 1e-300)
 
 
-def _common_mask(spheres):
-    """Bitwise AND of the spheres' masks: an engine selecting bodies by mask (GravityEngine(mask=M))
-    selects the correction exactly when a bit of M is shared by every sphere of the clump."""
-    m = -1
+def _correction_mask(spheres):
+    """Bitwise OR of the spheres' masks.  Engines select a body by mask when ``mask & M != 0``
+    (``GravityEngine`` and the other field appliers, which weigh clump members one by one): an engine
+    that selects every sphere of the clump shares a bit with each of them, hence with their union,
+    and so selects the correction too; an engine that selects none of the spheres shares no bit
+    with the union and skips the correction.  (``NewtonIntegrator``'s mask looks at the clump body,
+    ``VTKRecorder`` never exports the correction.)"""
+    m = 0
     for b in spheres:
-        m &= int(b.mask)
+        m |= int(b.mask)
     return m
 
 
@@ -595,8 +602,8 @@ _PLAIN_STATE = {}  # material class -> True if its newAssocState() is a plain St
 def _new_correction(Y, spheres, mat=None, mask=None):
     """A correction body for a clump of ``spheres``: bare ``Shape``, unbounded, the spheres' material
     with the state class that material expects (``material.newAssocState()``: CpmState for CpmMat,
-    JCFpmState for JCFpmMat, ...), the spheres' common mask.  Its mass properties are set later.
-    ``mat``, ``mask``: the first sphere's material and the common mask, if already known."""
+    JCFpmState for JCFpmMat, ...), the union of the spheres' masks.  Its mass properties are set later.
+    ``mat``, ``mask``: the first sphere's material and that mask, if already known."""
     if mat is None:
         mat = spheres[0].material
     b = Y.Body()
@@ -609,7 +616,7 @@ def _new_correction(Y, spheres, mat=None, mask=None):
             _PLAIN_STATE[type(mat)] = type(st) is Y.State
         b.state = st
     b.bounded = False
-    b.mask = _common_mask(spheres) if mask is None else mask
+    b.mask = _correction_mask(spheres) if mask is None else mask
     return b
 
 
@@ -993,6 +1000,7 @@ def _apply(plan, method):
             _raw(Y, "addToClump", [corr_id], cid, discretization=0, what=f"clump #{cid}")
         else:
             corr.bounded = False
+            corr.mask = _correction_mask(spheres)
             _set_correction_state(Y, corr.state, m_c[k], off[k], w_c[k], V_c[k])
             if len(spheres) >= 2:  # release and re-add: YADE updates this clump only
                 _raw(Y, "releaseFromClump", corr.id, cid, discretization=0, what=f"clump #{cid}")
@@ -1023,7 +1031,7 @@ def _batch_index(message):
 
 def _check_new_spheres(Y, k, spheres, seen):
     """Validate one input clump; returns (bodies, positions [(x, y, z)], radii, densities, material of
-    the first sphere, mask common to all, the bodies' states).  ``seen``: ids of the Body objects of
+    the first sphere, union of the masks, the bodies' states).  ``seen``: ids of the Body objects of
     the clumps checked before (a Body given twice is refused)."""
     try:
         spheres = list(spheres)
@@ -1033,7 +1041,7 @@ def _check_new_spheres(Y, k, spheres, seen):
         raise ClumpAdapterError(f"clump {k} of the input is empty")
     Body, Sphere = Y.Body, Y.Sphere
     xs, rs, rho, states = [], [], [], []
-    mask = -1
+    mask = 0
     mat0 = None
     inf = math.inf
     for j, b in enumerate(spheres):
@@ -1061,7 +1069,7 @@ def _check_new_spheres(Y, k, spheres, seen):
         xs.append((p[0], p[1], p[2]))
         rs.append(r)
         rho.append(mat.density)
-        mask &= b.mask
+        mask |= b.mask
         if mat0 is None:
             mat0 = mat
     r0 = rho[0]
@@ -1143,7 +1151,7 @@ def _build_one(Y, checked, com, m_c, off, w, q):
     st.pos = (dx, dy, dz)
     st.inertia = (w[0], w[1], w[2])
     st.ori = Y.Quaternion(q[0], q[1], q[2], q[3])
-    cid, mids = Y.O.bodies.appendClumped(spheres + [corr], 0)
+    cid, mids = _RAW["appendClumped"](Y.O.bodies, spheres + [corr], 0)
     c = Y.O.bodies[cid].state
     p = c.pos
     cx, cy, cz = ox + p[0], oy + p[1], oz + p[2]
@@ -1511,9 +1519,7 @@ def erase(body_id, eraseClumpMembers=False):
         if corr is None:
             return _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
         _neutralize(Y, corr)
-        ret = _raw(Y, "erase", bid, eraseClumpMembers, what=f"clump #{bid}")
-        if Y.O.bodies[corr.id] is not None:
-            _raw(Y, "erase", corr.id, what=f"clump #{bid}")
+        ret = _erase_clump(Y, bid, [s.id for s in spheres] if eraseClumpMembers else [], corr.id)
         reg.pop(bid, None)
         _save_registry(reg)
         return ret
@@ -1527,7 +1533,7 @@ def erase(body_id, eraseClumpMembers=False):
         c0, v0, w0 = _velocity_field(cb)
         if len(spheres) == 1:  # the last sphere: the clump and its correction go too
             _neutralize(Y, corr)
-            ret = _raw(Y, "erase", cid, True, what=f"clump #{cid}")
+            ret = _erase_clump(Y, cid, [s.id for s in spheres], corr.id)
             reg.pop(cid, None)
             _save_registry(reg)
             return ret
@@ -1537,6 +1543,19 @@ def erase(body_id, eraseClumpMembers=False):
         _apply([_plan_entry(cid)], method)
         return ret
     return _raw(Y, "erase", bid, eraseClumpMembers, what=f"body #{bid}")
+
+
+def _erase_clump(Y, cid, sphere_ids, corr_id):
+    """Erase a corrected clump, its correction and the spheres ``sphere_ids`` (the other members become
+    free).  YADE's own ``erase(clump, eraseClumpMembers=True)`` erases the clump body a second time from
+    inside its loop over the members (when the last member goes) and crashed a test process with a
+    segmentation fault (2023.02a; only after some other tests had run).  So the clump is erased alone
+    (its members become standalone) and then each body by itself."""
+    ret = _raw(Y, "erase", cid, False, what=f"clump #{cid}")
+    for i in [*sphere_ids, corr_id]:
+        if Y.O.bodies[i] is not None:
+            _raw(Y, "erase", i, False, what=f"clump #{cid}")
+    return ret
 
 
 def update_clump_properties(excludeList=(), discretization=5):
@@ -1576,7 +1595,8 @@ def _has_correction(Y, cb):
 # --------------------------------------------------------------------------- guards on O.bodies
 
 _RAW = {}
-_GUARDED = ("releaseFromClump", "addToClump", "erase", "updateClumpProperties")
+_GUARDED = ("releaseFromClump", "addToClump", "erase", "updateClumpProperties",
+            "clump", "appendClumped", "deleteClumpMember", "deleteClumpBody", "clear", "replace")
 _bypass = [0]
 
 
@@ -1604,8 +1624,9 @@ def _corrected_clump_of(Y, bid):
 
 
 def _install_guards(Y):
-    """Route ``O.bodies.releaseFromClump/addToClump/erase/updateClumpProperties`` through the adapter
-    whenever they touch a corrected clump (anything else goes straight to YADE)."""
+    """Replace the ``O.bodies`` methods that change clump membership or mass (``_GUARDED``) by guards:
+    a call touching a corrected clump is routed through the adapter or refused before YADE sees it
+    (:func:`_refuse_clump_ids`, :func:`_refuse_corrections`); anything else goes straight to YADE."""
     BC = type(Y.O.bodies)
     if _RAW:
         return
@@ -1619,6 +1640,8 @@ def _install_guards(Y):
 
     def addToClump(self, ids, cid, discretization=0):
         lst = [ids] if np.ndim(ids) == 0 else list(ids)
+        if not _bypass[0]:
+            _refuse_correction_ids(Y, lst, "O.bodies.addToClump")
         if _bypass[0] or all(_corrected_clump_of(Y, i) is None for i in [cid] + lst):
             return _RAW["addToClump"](self, ids, cid, discretization)
         return add_to_clump(lst, cid, discretization)
@@ -1633,9 +1656,120 @@ def _install_guards(Y):
             return _RAW["updateClumpProperties"](self, excludeList, discretization)
         return update_clump_properties(excludeList, discretization)
 
-    for f in (releaseFromClump, addToClump, erase, updateClumpProperties):
+    for f in (releaseFromClump, addToClump, erase, updateClumpProperties, *_membership_guards(Y)):
         f.__doc__ = (_RAW[f.__name__].__doc__ or "") + "\n\n[clumpprops] routed through clumpprops.yade for corrected clumps."
         setattr(BC, f.__name__, f)
+
+
+def _looks_like_correction(Y, b):
+    """A body made as a clumpprops correction (bare ``Shape``, unbounded), inside a clump or not."""
+    return b is not None and type(b.shape) is Y.Shape and not b.bounded and not b.isClump
+
+
+def _refuse_clump_ids(Y, ids, call):
+    """Raise (nothing changed) if ``O.bodies.clump(ids)`` would touch a corrected clump.
+
+    YADE's ``clump`` takes each body out of its old clump without updating that clump, then sums
+    the new one: a correction in the list can make a clump of negative or zero mass (``Clump.cpp``
+    ``Assertion 'M > 0' failed``: the process aborts), a sphere of a corrected clump leaves that
+    clump with a stale correction, a corrected clump brings its correction into the new one."""
+    for i in ids:
+        b = _body(i)
+        if _looks_like_correction(Y, b):
+            where = f" of clump #{b.clumpId}" if b.isClumpMember else ""
+            raise ClumpAdapterError(
+                f"{call}: body #{b.id} is a clumpprops correction{where} and cannot be clumped "
+                "(its mass is negative); clump spheres only, or add them with O.bodies.addToClump"
+            )
+        cb = _corrected_clump_of(Y, b.id)
+        if cb is None:
+            continue
+        if b.isClump:
+            raise ClumpAdapterError(
+                f"{call}: body #{b.id} is a corrected clump; join clumps with O.bodies.addToClump([...], {b.id}) "
+                "(exact) instead"
+            )
+        raise ClumpAdapterError(
+            f"{call}: body #{b.id} is a sphere of corrected clump #{cb.id}; release it first with "
+            f"O.bodies.releaseFromClump({b.id}, {cb.id}) (or cy.release)"
+        )
+
+
+def _refuse_correction_ids(Y, ids, call):
+    """Raise if one of ``ids`` is a correction body (in a clump or left over, e.g. by YADE's own erase):
+    added to a clump, its negative mass is summed with the clump's (YADE can abort on ``M > 0``)."""
+    for i in ids:
+        try:
+            b = Y.O.bodies[int(i)]
+        except Exception:
+            continue  # YADE reports a bad id itself
+        if _looks_like_correction(Y, b):
+            where = f" of clump #{b.clumpId}" if b.isClumpMember else " (outside any clump)"
+            raise ClumpAdapterError(f"{call}: body #{b.id} is a clumpprops correction{where}; it cannot join a clump")
+
+
+def _refuse_corrections(Y, bodies, call):
+    """Raise if a body to be appended is a correction body: only the adapter builds those."""
+    for j, b in enumerate(bodies):
+        if isinstance(b, Y.Body) and _looks_like_correction(Y, b):
+            raise ClumpAdapterError(
+                f"{call}: item {j} is a clumpprops correction body (bare Shape, bounded=False); "
+                "corrections are made by cy.append_clump / cy.correct_clump only"
+            )
+
+
+def _forget_registry(Y):
+    """Empty the scene's registry (after ``O.bodies.clear()`` / ``replace()``: every clump is gone)."""
+    tags = Y.O.tags
+    for k in range(len(_registry().chunks)):
+        try:
+            del tags[f"{_TAG}.{k}"]
+        except (KeyError, TypeError, AttributeError):
+            tags[f"{_TAG}.{k}"] = ""
+    _save_registry(_Registry())
+
+
+def _membership_guards(Y):
+    """Guards for ``clump``, ``appendClumped``, ``deleteClumpMember``, ``deleteClumpBody``, ``clear`` and
+    ``replace`` (same names and keywords as YADE's methods)."""
+
+    def clump(self, ids, discretization=0):
+        if not _bypass[0]:
+            _refuse_clump_ids(Y, [ids] if np.ndim(ids) == 0 else list(ids), "O.bodies.clump")
+        return _RAW["clump"](self, ids, discretization)
+
+    def appendClumped(self, bodies, discretization=0):
+        if not _bypass[0]:
+            bodies = list(bodies)
+            _refuse_corrections(Y, bodies, "O.bodies.appendClumped")
+        return _RAW["appendClumped"](self, bodies, discretization)
+
+    def deleteClumpMember(self, clumpBody, memberBody):
+        if _bypass[0] or clumpBody is None or _corrected_clump_of(Y, clumpBody.id) is None:
+            return _RAW["deleteClumpMember"](self, clumpBody, memberBody)
+        if memberBody is None or memberBody.clumpId != clumpBody.id or not memberBody.isClumpMember:
+            mid = None if memberBody is None else memberBody.id
+            raise ClumpAdapterError(f"O.bodies.deleteClumpMember: body #{mid} is not a member of clump #{clumpBody.id}")
+        globals()["erase"](memberBody.id)  # erasing the correction itself is refused there
+
+    def deleteClumpBody(self, clumpBody):
+        if _bypass[0] or clumpBody is None or _corrected_clump_of(Y, clumpBody.id) is None:
+            return _RAW["deleteClumpBody"](self, clumpBody)
+        globals()["erase"](clumpBody.id, True)
+
+    def clear(self):
+        ret = _RAW["clear"](self)
+        if not _bypass[0]:
+            _forget_registry(Y)
+        return ret
+
+    def replace(self, bodies):
+        ret = _RAW["replace"](self, bodies)
+        if not _bypass[0]:
+            _forget_registry(Y)
+        return ret
+
+    return clump, appendClumped, deleteClumpMember, deleteClumpBody, clear, replace
 
 
 # --------------------------------------------------------------------------- checking the scene
@@ -1650,6 +1784,10 @@ class CheckReport:
     error); ``stale``: [(clump id, reason)] corrected clumps that no longer match (state off, sphere
     set changed since the correction, correction lost); ``orphaned``: [(body id, reason)] corrections
     without their clump (a free correction body, a registry entry for a missing clump);
+    ``invalid``: [(body id, reason)] dynamic bodies that are not clump members with a mass or a
+    principal moment that is not positive (YADE divides by them; a correction left free by YADE's
+    own erase is one); ``masks``: [(clump id, reason)] corrections whose mask is not the union of
+    their spheres' masks (a mask changed after the build: ``cy.correct_clump`` sets it again);
     ``max_error``: the largest relative error found over the exact and stale clumps.
     """
 
@@ -1657,17 +1795,22 @@ class CheckReport:
     uncorrected: list = field(default_factory=list)
     stale: list = field(default_factory=list)
     orphaned: list = field(default_factory=list)
+    invalid: list = field(default_factory=list)
+    masks: list = field(default_factory=list)
     max_error: float = 0.0
 
     @property
     def ok(self) -> bool:
-        return not self.stale and not self.orphaned
+        return not (self.stale or self.orphaned or self.invalid or self.masks)
 
     def __str__(self):
         lines = [f"clumpprops check: {len(self.exact)} exact, {len(self.uncorrected)} uncorrected, "
-                 f"{len(self.stale)} stale, {len(self.orphaned)} orphaned (max relative error {self.max_error:.2g})"]
+                 f"{len(self.stale)} stale, {len(self.orphaned)} orphaned, {len(self.invalid)} invalid, "
+                 f"{len(self.masks)} mask mismatches (max relative error {self.max_error:.2g})"]
         lines += [f"  stale clump #{c}: {why}" for c, why in self.stale]
         lines += [f"  orphaned #{c}: {why}" for c, why in self.orphaned]
+        lines += [f"  invalid body #{c}: {why}" for c, why in self.invalid]
+        lines += [f"  mask of clump #{c}: {why}" for c, why in self.masks]
         return "\n".join(lines)
 
 
@@ -1680,7 +1823,10 @@ def check(rtol=1e-9, raise_on_error=False):
     the library's for the spheres where they are now (relative ``rtol``; clumps corrected with
     ``montecarlo`` are checked for their fingerprint only).  Also reports correction bodies that
     are not in a clump (e.g. left by YADE's own ``erase`` of a corrected clump: a free body of
-    negative mass) and registry entries whose clump is gone or has lost its correction.
+    negative mass), registry entries whose clump is gone or has lost its correction, clumps that
+    hold a correction with no sphere or with a non-sphere member (stale), dynamic bodies outside
+    clumps with a mass or principal moment that is not positive (``invalid``) and corrections whose
+    mask is not the union of their spheres' masks (``masks``).
     ``raise_on_error=True`` raises :class:`ClumpAdapterError` listing them.
     """
     Y = _Y.load()
@@ -1702,7 +1848,7 @@ def check(rtol=1e-9, raise_on_error=False):
         try:
             spheres, corr = _split_members(b)
         except ClumpAdapterError as exc:
-            if rec is not None:
+            if rec is not None or _has_correction(Y, b):  # e.g. a correction clumped alone or with other shapes
                 rep.stale.append((cid, str(exc)))
             else:
                 rep.uncorrected.append(cid)
@@ -1721,6 +1867,7 @@ def check(rtol=1e-9, raise_on_error=False):
             why.append(f"correction is #{corr.id}, the registry records #{rec[0]}")
         if not _fingerprint_matches(rec[1], spheres):
             why.append("its sphere set changed since it was corrected (fingerprint differs)")
+        _check_mask(rep, cid, spheres, corr)
         pending.append((cid, spheres, rec[2], why))
     # YADE's state against the library, one batch per method
     by_method = {}
@@ -1757,11 +1904,36 @@ def check(rtol=1e-9, raise_on_error=False):
     for cid, rec in reg.items():
         if cid not in seen:
             rep.orphaned.append((cid, f"registry entry for clump #{cid} (correction #{rec[0]}), which no longer exists"))
+    _check_dynamic_mass(Y, rep)
     rep.exact.sort()
     rep.stale.sort()
     if raise_on_error and not rep.ok:
         raise ClumpAdapterError(str(rep))
     return rep
+
+
+def _check_mask(rep, cid, spheres, corr):
+    """Report a correction whose mask is not the union of its spheres' (see :func:`_correction_mask`)."""
+    want = _correction_mask(spheres)
+    if int(corr.mask) != want:
+        rep.masks.append((cid, f"correction #{corr.id} has mask {int(corr.mask):#x}, its spheres' union is {want:#x} "
+                               f"(a mask-selected engine would weigh the clump wrongly); run cy.correct_clump({cid})"))
+
+
+def _check_dynamic_mass(Y, rep):
+    """Report every dynamic body outside clumps (clumps and free bodies: what NewtonIntegrator moves)
+    whose mass or a principal moment is not positive and finite."""
+    for b in Y.O.bodies:
+        if b is None or b.isClumpMember or not b.dynamic:
+            continue
+        st = b.state
+        m = float(st.mass)
+        inertia = [float(st.inertia[k]) for k in range(3)]
+        if not (0.0 < m < math.inf and all(0.0 < i < math.inf for i in inertia)):
+            kind = "clump" if b.isClump else type(b.shape).__name__ if b.shape is not None else "no shape"
+            rep.invalid.append((b.id, f"dynamic {kind} with mass {m:.6g} kg and principal moments "
+                                      f"{', '.join(f'{i:.6g}' for i in inertia)} (must be positive)"))
+    rep.invalid.sort()
 
 
 # --------------------------------------------------------------------------- inspection

@@ -458,7 +458,7 @@ def test_correction_state_class_negative_control(tmp_path):
 
 
 def test_mask_selected_engines(scene):
-    """The correction carries the bits common to all spheres of its clump: a GravityEngine selecting
+    """The correction carries the union of the mask bits of its spheres: a GravityEngine selecting
     the spheres by mask weighs the correction too (exact weight, no torque); one selecting other
     bodies sees neither."""
     c, r = trimer()
@@ -471,10 +471,10 @@ def test_mask_selected_engines(scene):
     assert vec(O.bodies[a_id].state.vel)[2] == pytest.approx(-G * 0.01, rel=1e-12)
     assert np.max(np.abs(vec(O.bodies[a_id].state.angVel))) < 1e-12
     assert np.all(vec(O.bodies[b_id].state.vel) == 0)
-    # mixed masks: only the common bits
+    # mixed masks: the union of the bits
     c2, m2 = cy.append_clump([utils.sphere((4, 0, 0), 0.1, material="mat", mask=0b110),
                               utils.sphere((4, 0, 0.1), 0.1, material="mat", mask=0b011)])
-    assert O.bodies[cy.correction_id(c2)].mask == 0b010
+    assert O.bodies[cy.correction_id(c2)].mask == 0b111
 
 
 # VTKRecorder's recorders that write interactions (r-intrs.*.vtp): "intr" and the ones that turn it on.
