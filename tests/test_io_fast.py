@@ -237,3 +237,22 @@ def test_text_clumps_file_with_bom(tmp_path):
     p = tmp_path / "b.txt"
     p.write_text("#format x_y_z_r_clumpId\n0 0 0 1 4\n", encoding="utf-8-sig")
     assert read_text_clumps(p)[0].clump_id == 4
+
+
+@pytest.mark.parametrize("sep", ["\t", "\x0b", "\x0c", "\x1c", "\x85", "\u2003", "\u3000", "\u200b"])
+def test_unusual_whitespace_splits_as_python_split(sep):
+    """numpy's reader splits words where str.split() does (Unicode whitespace); where it does not
+    (a zero-width space is not whitespace) the line-by-line path decides, with the same result."""
+    from array import array
+
+    from clumpprops import textclumps as tc
+
+    line = f"1{sep}2 3 4 5\n"
+    expect_split = len(line.split()) == 5
+    assert tc._fast_chunk([line], 0, array("d"), array("q"), array("q")) == expect_split
+    if expect_split:
+        cl = parse_text_clumps([line], "t")
+        assert cl.centers.tolist() == [[1.0, 2.0, 3.0]] and cl.radii.tolist() == [4.0] and cl.ids.tolist() == [5]
+    else:
+        with pytest.raises(TextClumpsError, match=r"^t:1: expected 5 columns"):
+            parse_text_clumps([line], "t")

@@ -29,6 +29,8 @@ reads in seconds, in memory a few times the file's size (benchmarks/bench_io.py
 """
 from __future__ import annotations
 
+import contextlib
+import gc
 import math
 import os
 from pathlib import Path
@@ -247,7 +249,12 @@ def read_yade(path, scale: float = 1.0) -> List[Clump]:
         raise ClumpFileError(exc.reason, exc.source, lineno) from None
     except OSError as exc:
         raise ClumpFileError(f"cannot read: {exc.strerror or exc}", str(path)) from None
-    stem, src = _stem(path), str(path)
+    with _gc_paused():  # 10**5..10**6 new objects, none in a cycle: the collector would only rescan them
+        return _clumps_of(tcs, _stem(path), str(path))
+
+
+def _clumps_of(tcs, stem, src) -> List[Clump]:
+    """One Clump per clump of a parsed textClumps file, named STEM_ID (STEM_ID_lineN for a repeated id)."""
     starts, ids, lines = tcs.starts.tolist(), tcs.ids.tolist(), tcs.lines.tolist()
     out, used = [], set()
     for k, cid in enumerate(ids):
@@ -258,6 +265,17 @@ def read_yade(path, scale: float = 1.0) -> List[Clump]:
         used.add(name)
         out.append(Clump(tcs.centers[a:b], tcs.radii[a:b], name, src, tuple(lines[a:b])))
     return out
+
+
+@contextlib.contextmanager
+def _gc_paused():
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 _MOL_SECTIONS = ("Coords", "Types", "Molecules", "Fragments", "Charges", "Diameters", "Masses", "Bonds", "Angles",
