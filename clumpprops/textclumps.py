@@ -23,7 +23,7 @@ that is not a number, a non-finite value, a radius <= 0 or a non-integer
 ``clumpId`` raise :class:`TextClumpsError` with the line number (YADE raises a bare
 ``ValueError`` or silently builds a broken clump).  ``clumpId`` must be an integer, as
 YADE's ``int()`` demands, so ``3.0`` is rejected.  Numbers are ASCII only
-(:mod:`clumpprops.io._numtext`): ``1_0`` and non-ASCII digits such as ``١٠``, which Python's
+(:mod:`clumpprops._numtext`): ``1_0`` and non-ASCII digits such as ``١٠``, which Python's
 ``float()`` and ``int()`` (and so YADE) read as 10, are rejected; a UTF-8 byte order mark at
 the start of the file is skipped.  Ids >= 10**6 written
 as plain integers are fine.  ``export.textClumps`` writes ids with ``%g``, which turns
@@ -52,7 +52,7 @@ from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-from .io._numtext import BOM, fast_table, float_columns, is_float, strict_float, strict_int
+from ._numtext import BOM, fast_table, float_columns, is_float, strict_float, strict_int
 
 __all__ = ["TextClump", "TextClumps", "TextClumpsError", "parse_text_clumps", "read_text_clumps"]
 

@@ -10,7 +10,7 @@ import pytest
 
 from clumpprops.io import ClumpFileError, read
 from clumpprops.io import readers as R
-from clumpprops.io._numtext import fast_table, strict_float, strict_int
+from clumpprops._numtext import fast_table, strict_float, strict_int
 from clumpprops.textclumps import TextClumpsError, parse_text_clumps, read_text_clumps
 
 # refused by every reader (Python's float() reads the first six as numbers), then words that are numbers

@@ -15,7 +15,7 @@ format      file                                                    detected fro
 Every reader checks each number (a word that is not a number, NaN/inf, a radius <= 0,
 the wrong number of columns) and raises :class:`ClumpFileError` naming the file and
 line; a file without spheres is an error too.  Numbers are ASCII only (``1_0`` and
-non-ASCII digits are not numbers: :mod:`._numtext`); a UTF-8 byte order mark at the start
+non-ASCII digits are not numbers: :mod:`clumpprops._numtext`); a UTF-8 byte order mark at the start
 of a file is skipped.  In a ``.mol`` file each atom id appears once per section, every
 ``Diameters`` and ``Masses`` entry is a number > 0 for an atom of ``Coords``.  ``scale``
 multiplies coordinates and radii (0.001 for files in mm).
@@ -39,7 +39,7 @@ from typing import List, Optional
 import numpy as np
 
 from ._common import Clump, ClumpFileError
-from ._numtext import data_line_indices, fast_table, float_columns, is_float, strict_float, strict_int, strip_bom
+from .._numtext import data_line_indices, fast_table, float_columns, is_float, strict_float, strict_int, strip_bom
 
 __all__ = ["FORMATS", "detect_format", "read"]
 
@@ -93,7 +93,7 @@ def _read_lines(path) -> List[str]:
 
 
 def _number(word, what, source, lineno) -> float:
-    """A finite number (strict ASCII grammar, :mod:`._numtext`) or one ClumpFileError naming the line."""
+    """A finite number (strict ASCII grammar, :mod:`clumpprops._numtext`) or one ClumpFileError naming the line."""
     try:
         v = strict_float(word)
     except ValueError:

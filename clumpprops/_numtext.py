@@ -1,4 +1,5 @@
-"""Numbers in text files, one strict grammar for every reader, and the vectorised parse.
+"""Numbers in text files: one strict grammar for every file reader (textClumps and the
+importers of :mod:`clumpprops.io`), and the vectorised parse.
 
 Python's ``float()`` and ``int()`` accept more than a number file should hold: digit
 separators (``1_0`` is 10) and any Unicode decimal digit (Arabic-Indic ``١٠``, full-width
