@@ -21,8 +21,11 @@ Differences from YADE, all stricter or friendlier, never a different grouping:
 blank lines are skipped (YADE stops with an IndexError); a short line, a word
 that is not a number, a non-finite value, a radius <= 0 or a non-integer
 ``clumpId`` raise :class:`TextClumpsError` with the line number (YADE raises a bare
-``ValueError`` or silently builds a broken clump).  ``clumpId`` is parsed with
-Python's ``int()`` exactly as YADE does, so ``3.0`` is rejected.  Ids >= 10**6 written
+``ValueError`` or silently builds a broken clump).  ``clumpId`` must be an integer, as
+YADE's ``int()`` demands, so ``3.0`` is rejected.  Numbers are ASCII only
+(:mod:`clumpprops._numtext`): ``1_0`` and non-ASCII digits such as ``١٠``, which Python's
+``float()`` and ``int()`` (and so YADE) read as 10, are rejected; a UTF-8 byte order mark at
+the start of the file is skipped.  Ids >= 10**6 written
 as plain integers are fine.  ``export.textClumps`` writes ids with ``%g``, which turns
 ids >= 10**6 into exponent form rounded to 6 significant digits (``1234567`` becomes
 ``1.23457e+06``, ``1234568`` too), so neighbouring clumps can merge: such ids are
@@ -32,21 +35,24 @@ write the file with integer ids (``clumpprops.yade.export_text_clumps``).
 ``scale`` and ``shift`` behave as in ``ymport.textClumps``: position
 ``shift + scale * (x, y, z)``, radius ``scale * r``.
 
-Large files: lines are read one at a time into flat typed arrays (40 bytes per sphere);
-the clumps returned are light views into those arrays, so a file of 10**6 lines parses
-in about a second and never holds more than the arrays and one line of text.
+Large files: blocks of 65536 lines are parsed by numpy's C reader into flat typed arrays
+(40 bytes per sphere); a block numpy refuses is read again line by line, which raises the
+error with its line number.  The clumps returned are light views into those arrays, so a
+file of 10**6 lines parses in a few seconds and holds the arrays and one block of text
+(benchmarks/bench_io.py --read-lines measures both).
 """
 from __future__ import annotations
 
 import itertools
 import math
 import sys
-import warnings
 from array import array
 from collections import abc
 from typing import Iterable, Optional, Sequence
 
 import numpy as np
+
+from ._numtext import BOM, fast_table, float_columns, is_float, strict_float, strict_int
 
 __all__ = ["TextClump", "TextClumps", "TextClumpsError", "parse_text_clumps", "read_text_clumps"]
 
@@ -139,7 +145,7 @@ _ID_MAX = 2**63 - 1
 
 def _id_error(word: str) -> str:
     try:
-        v = float(word)
+        v = strict_float(word)
     except ValueError:
         return f"clumpId must be an integer, got {word!r}"
     if math.isfinite(v) and v == int(v) and "e" in word.lower():
@@ -191,7 +197,7 @@ def parse_text_clumps(
     vals = array("d")  # x, y, z, r per sphere
     ids = array("q")
     lns = array("q")
-    it = iter(lines)
+    it = _without_bom(iter(lines))
     lineno = 0
     try:
         while True:
@@ -220,31 +226,31 @@ def parse_text_clumps(
     return TextClumps(centers, radii, line_arr.copy(), starts, clump_ids.copy(), repeated)
 
 
+def _without_bom(it):
+    """The lines, a UTF-8 byte order mark at the start of the first one removed."""
+    first = next(it, None)
+    if first is None:
+        return iter(())
+    return itertools.chain([first[len(BOM):] if first.startswith(BOM) else first], it)
+
+
 _CHUNK = 1 << 16  # lines per block: bounded memory for the text, whatever the file size
-_ROW = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("r", "f8"), ("id", "U32")])
+_ROW = np.dtype([("x", "f8"), ("y", "f8"), ("z", "f8"), ("r", "f8"), ("id", "i8")])
 
 
 def _fast_chunk(chunk, offset, vals, ids, lns) -> bool:
-    """Parse a block of lines with numpy's C reader; False (nothing appended) if any line needs the
-    careful Python path (an error to report, or a form numpy reads differently from ``float``/``int``)."""
+    """Parse a block of lines with numpy's C reader (ASCII numbers only, ids plain integers: '3.0',
+    '1e+06', '1_0' and out-of-range ids fail); False (nothing appended) if any line needs the
+    line-by-line path, which then raises the error with its line number."""
     keep = [i for i, line in enumerate(chunk) if line.lstrip()[:1] not in ("#", "")]
     if not keep:
         return True
     data = chunk if len(keep) == len(chunk) else [chunk[i] for i in keep]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")
-            rows = np.loadtxt(data, dtype=_ROW, usecols=range(5), comments=None, ndmin=1)
-            cid = rows["id"].astype(np.int64)  # int() per id: '3.0' and '1e+06' fail as in YADE
-    except Exception:  # noqa: BLE001  (any doubt: the Python path decides, with the line number)
+    rows = fast_table(data, _ROW, usecols=range(5))
+    if rows is None:
         return False
-    if len(rows) != len(keep):
-        return False
-    four = np.empty((len(rows), 4))
-    for k, name in enumerate(_COLUMNS):
-        four[:, k] = rows[name]
-    vals.frombytes(four.tobytes())
-    ids.frombytes(cid.tobytes())
+    vals.frombytes(float_columns(rows, _COLUMNS).tobytes())
+    ids.frombytes(np.ascontiguousarray(rows["id"]).tobytes())
     lns.frombytes((np.asarray(keep, dtype=np.int64) + offset + 1).tobytes())
     return True
 
@@ -261,12 +267,12 @@ def _slow_chunk(chunk, offset, vals, ids, lns, source):
                 f"expected 5 columns 'x y z r clumpId', got {len(data)}: {line.strip()!r}", source, lineno
             )
         try:
-            extend((float(data[0]), float(data[1]), float(data[2]), float(data[3])))
+            extend((strict_float(data[0]), strict_float(data[1]), strict_float(data[2]), strict_float(data[3])))
         except ValueError:
-            k = next(k for k in range(4) if not _is_float(data[k]))
+            k = next(k for k in range(4) if not is_float(data[k]))
             raise TextClumpsError(f"{_COLUMNS[k]} is not a number: {data[k]!r}", source, lineno) from None
         try:
-            cid = int(data[4])
+            cid = strict_int(data[4])
         except ValueError:
             del vals[-4:]
             raise TextClumpsError(_id_error(data[4]), source, lineno) from None
@@ -275,14 +281,6 @@ def _slow_chunk(chunk, offset, vals, ids, lns, source):
             raise TextClumpsError(f"clumpId {data[4]!r} is out of range (|id| < 2**63)", source, lineno)
         add_id(cid)
         add_line(lineno)
-
-
-def _is_float(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True
 
 
 def read_text_clumps(path, scale: float = 1.0, shift: Sequence[float] = (0.0, 0.0, 0.0)) -> TextClumps:

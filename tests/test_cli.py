@@ -402,7 +402,7 @@ def test_million_lines_parse_fast_with_bounded_memory(tmp_path):
 
 def test_fast_and_careful_parsers_agree():
     """The numpy block reader and the line-by-line reader (YADE's rules) give the same arrays; a block
-    the numpy reader doubts ('1_0', which Python's float() reads as 10, as YADE does) goes line by line."""
+    the numpy reader refuses ('1_0', which Python's float() would read as 10) goes line by line, which words the error."""
     from clumpprops import textclumps as tc
 
     text = ["#format x_y_z_r_clumpId\n", "# c\n", "\n"] + [
@@ -421,4 +421,5 @@ def test_fast_and_careful_parsers_agree():
     for name in ("centers", "radii", "lines", "starts", "ids", "repeated"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(slow, name))
     assert not tc._fast_chunk(["1_0 2 3 4 7\n"], 0, array("d"), array("q"), array("q"))
-    assert tc.parse_text_clumps(text + ["1_0 2 3 4 7\n"], "t")[-1].centers[1, 0] == 10.0
+    with pytest.raises(TextClumpsError, match=r"^t:306: x is not a number: '1_0'$"):
+        tc.parse_text_clumps(text + ["1_0 2 3 4 7\n"], "t")  # Python's float() would read 10
