@@ -235,11 +235,12 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                 workers = workers or os.cpu_count() or 1
                 client, cluster = _client(scheduler, workers)
                 settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
+                cost = _cost_model(spec, rdir)        # once: a re-plan's new runs are submitted at once
             futs, pending = {}, set()
 
             def submit(batch):
                 nonlocal n_sub
-                expected.update(_expected_walls(spec, rdir, batch))
+                expected.update({r["key"]: cost(r["params"]) for r in batch})
                 for run in batch:
                     f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
                                       pure=False, priority=_priority(run, schedule), retries=0)
@@ -371,13 +372,14 @@ def _priority(run, schedule="in_order"):
     return -(int(run["group"]) * 10**7 + int(run["seed"]) * 10)
 
 
-def _expected_walls(spec, rdir, runs):
-    """{run key: expected wall seconds} from the study's own like runs, else the cost model
-    (:func:`studies.plan.estimate`); what the ETAs start from before a run has measured its pace."""
+def _cost_model(spec, rdir):
+    """A function of a run's parameters giving its expected wall seconds: from the study's own like
+    runs, else the per-body-step cost model (:func:`studies.plan.estimate`; the records as they are
+    when the sweep starts); what the ETAs start from before a run has measured its pace."""
     from . import design, plan
     own = design.load_records(spec, rdir)
     per = plan.seconds_per_body_step(plan.committed_records())
-    return {r["key"]: plan.estimate(r["params"], own, per)[0] for r in runs}
+    return lambda params: plan.estimate(params, own, per)[0]
 
 
 def remaining_s(expected_s, progress, now=None):

@@ -51,12 +51,14 @@ SCHEMA = {
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
             "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start"),
             "spin_pairing": (str, False, "own", "spin_pairing")},
-    "run": {"t_end": (_NUM, True, None, "pos"), "rec_interval": (_NUM, True, None, "pos"),
-            "dt_factor": (_NUM, True, None, "pos"), "energy_tol": (_NUM, False, 1e-3, "pos"),
+    # t_end, rec_interval, dt_factor and the analysis' times default to values from the gas itself
+    # (None here; :func:`physics_defaults`)
+    "run": {"t_end": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
+            "dt_factor": (_NUM, False, 1.0, "pos"), "energy_tol": (_NUM, False, 1e-3, "pos"),
             "momentum_tol": (_NUM, False, 1e-9, "pos"), "progress_period": (_NUM, False, 20.0, "pos"),
             "legacy_dt": (dict, False, None, None)},
-    "analysis": {"t_eq": ((_NUM, str), True, None, "t_eq"), "fit_lo": (_NUM, True, None, "nonneg"),
-                 "fit_hi": (_NUM, True, None, "pos"), "max_lag": (_NUM, False, 150.0, "pos"),
+    "analysis": {"t_eq": ((_NUM, str), False, "auto", "t_eq"), "fit_lo": (_NUM, False, None, "nonneg"),
+                 "fit_hi": (_NUM, False, None, "pos"), "max_lag": (_NUM, False, None, "pos"),
                  "cuts": (list, False, [], None), "sensitivity": (list, False, [], None)},
     "spheres": {"diameter": ((_NUM, str), False, "equal_volume", "diameter"),
                 "mass": (str, False, "exact", "smass")},
@@ -199,14 +201,12 @@ def validate(raw):
             raise SpecError(f"{k}: unknown table (known: {', '.join(sorted(known))})")
     spec = {}
     for t, keys in SCHEMA.items():
-        if t not in raw and t not in ("spheres",):
+        if t not in raw and t not in ("spheres", "run", "analysis"):
             raise SpecError(f"{t}: missing table")
         spec[t] = _table(t, raw.get(t, {}), keys)
     if spec["run"]["legacy_dt"] is not None:
         spec["run"]["legacy_dt"] = _table("run.legacy_dt", spec["run"]["legacy_dt"], LEGACY_DT_KEYS)
     a = spec["analysis"]
-    if a["fit_hi"] <= a["fit_lo"]:
-        raise SpecError(f"analysis.fit_hi: must be > analysis.fit_lo ({a['fit_lo']}), got {a['fit_hi']}")
     for i, c in enumerate(a["cuts"]):
         _check_value(f"analysis.cuts[{i}]", c, _NUM, "nonneg")
     for i, s in enumerate(a["sensitivity"]):
@@ -269,9 +269,57 @@ def validate(raw):
                             f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
                             f"integrator, which gains energy; set study.yade = '2025.2'")
         spec["groups"].append(gd)
-        _check_placement(where, spec, gd)
-        _check_analysis_window(where, spec, gd)
+    physics_defaults(spec)
+    a = spec["analysis"]
+    if a["fit_hi"] <= a["fit_lo"]:
+        raise SpecError(f"analysis.fit_hi: must be > analysis.fit_lo ({a['fit_lo']}), got {a['fit_hi']}")
+    for i, gd in enumerate(spec["groups"]):
+        _check_placement(f"groups[{i}]", spec, gd)
+        _check_analysis_window(f"groups[{i}]", spec, gd)
     return spec
+
+
+def velocity_correlation_time(spec, g):
+    """tau_v = m D / kT [s]: how long a particle of group ``g``'s gas keeps its velocity, from the first
+    Chapman-Enskog D of hard spheres (:func:`studies.kinetic.d_hard_spheres_first`) of the clump's
+    mass and volume-equivalent diameter, at the gas's number density and equipartition temperature
+    (kT = 2 e / (3 + rotational degrees of freedom)).  For the paper's dimer gas it gives 22 s
+    (measured: about 25 s), for its sphere gas 11 s (measured: about 11.5 s; docs/granular_gas.md)."""
+    from .kinetic import d_hard_spheres_first
+
+    mat, gas, _ = group_tables(spec, g)
+    props = shp.properties(spec["shapes"][g["shape"]], mat["density"])
+    m, vol = props["exact"]["mass"], props["exact"]["volume"]
+    sigma = (6.0 * vol / math.pi) ** (1.0 / 3.0)
+    n = float(gas["volume_fraction"]) / vol                  # particles per m^3 (box^3 = N vol / phi)
+    kT = 2.0 * float(gas["energy_per_particle"]) / (3.0 + (2.0 if props["linear"] else 3.0))
+    return m * d_hard_spheres_first(n, kT, m, sigma) / kT
+
+
+def _nice(x, up=False):
+    """x rounded to 1, 2, 2.5 or 5 times a power of ten (down, or up with ``up``)."""
+    e = 10.0 ** math.floor(math.log10(x))
+    steps = [s * e for s in (1.0, 2.0, 2.5, 5.0, 10.0)]
+    return min(s for s in steps if s >= x * (1 - 1e-12)) if up else max(s for s in steps if s <= x * (1 + 1e-12))
+
+
+def physics_defaults(spec):
+    """Fill the times a spec leaves out from its gas's velocity correlation time tau_v (the longest of
+    its groups', :func:`velocity_correlation_time`), as the committed studies chose them by hand for
+    the paper's gas (tau_v about 25 s): ``analysis.max_lag`` = 4 tau_v (the VACF has decayed to
+    e^-4), the OLS window ``fit_lo``..``fit_hi`` = 5..7 tau_v (the MSD is linear), ``run.t_end`` =
+    40 tau_v (D to a few per cent a run), ``run.rec_interval`` = tau_v / 100; each rounded to 1, 2,
+    2.5 or 5 times a power of ten.  ``analysis.t_eq`` defaults to "auto" and ``run.dt_factor`` to
+    1.0 (docs/timestep.md).  Records which keys were derived in ``spec["derived"]``."""
+    tau = max(velocity_correlation_time(spec, g) for g in spec["groups"])
+    a, run = spec["analysis"], spec["run"]
+    rules = ((a, "max_lag", _nice(4 * tau, up=True)), (a, "fit_lo", _nice(5 * tau)), (a, "fit_hi", _nice(7 * tau, up=True)),
+             (run, "t_end", _nice(40 * tau, up=True)), (run, "rec_interval", _nice(tau / 100)))
+    derived = {}
+    for table, key, value in rules:
+        if table[key] is None:
+            table[key] = derived[key] = value
+    spec["derived"] = dict(derived, tau_v=tau)
 
 
 def _check_one_body(where, shape, centers, radii):

@@ -588,11 +588,20 @@ def test_effects_keep_a_groups_own_time_step_apart_and_refuse_rows_effects_csv_c
     for run in S.runs(short):
         _scaled_record(engine.results_dir(short), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.9)
     short["study"]["name"] = "short"
-    with pytest.raises(ValueError, match=r"apart, from dimer_paired and from short, differing in run\.t_end \(\d+\.0 / \d+\.0\)\.  Set `in_results = false`"):
-        effects.effect_rows([main, short])
-    # the report's command says so in one line and writes neither effects.csv nor README.md
+    # another run length is another gas: its own row, with its own t_end (effects.GAS_COLUMNS)
+    rows = [r for r in effects.effect_rows([main, short]) if r["case"] == "mass_only"]
+    assert sorted(r["t_end"] for r in rows) == [200.0, main["run"]["t_end"]]
+    # two studies whose rows differ only in what effects.csv does not show (the recording interval
+    # here) still stop the headline, in one line, writing neither effects.csv nor README.md
+    fine = spec_for(tmp_path / "d", [{"shape": "dimer", "cases": ["exact", "mass_only"], "seeds": [20, 21]}])
+    fine["run"]["rec_interval"] = 0.125
+    for run in S.runs(fine):
+        _scaled_record(engine.results_dir(fine), run, base[run["seed"]], 1.0 if run["case"] == "exact" else 0.9)
+    fine["study"]["name"] = "fine"
+    with pytest.raises(ValueError, match=r"apart, from dimer_paired and from fine, differing in run\.rec_interval"):
+        effects.effect_rows([main, fine])
     from studies import report
-    monkeypatch.setattr(effects, "results_specs", lambda: [main, short])
+    monkeypatch.setattr(report, "readable_specs", lambda: ([main, fine], []))
     monkeypatch.setattr(report, "RESULTS", str(tmp_path / "results_out"))
     assert report.main() == 1
     err = capsys.readouterr().err

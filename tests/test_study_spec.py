@@ -716,3 +716,46 @@ def test_a_bad_spec_stops_the_command_line_with_one_line_and_status_2(tmp_path):
     assert p.returncode == 2
     assert p.stdout == "" and len(p.stderr.strip().splitlines()) == 1
     assert "shapes.dimer: the spheres do not form one body" in p.stderr
+
+
+def _measured_vacf_time(study, shape, n=8):
+    """The velocity correlation time (s) measured in committed exact runs: the integral of the
+    normalised VACF to the stored lags, averaged over n seeds."""
+    out = []
+    for f in sorted((SPECS.parents[1] / "results" / study / "runs").glob(f"{shape}-exact-*.json"))[:n]:
+        w = json.loads(f.read_text())["windows"][0]
+        v = np.asarray(w["vacf"])
+        out.append(np.trapz(v / v[0], dx=w["frame_interval"]))
+    assert len(out) == n
+    return float(np.mean(out))
+
+
+@pytest.mark.parametrize("study, group", [("dimer_paired", 0), ("shapes", 0), ("shapes", 1), ("shapes", 2), ("shapes", 3)])
+def test_the_velocity_correlation_time_behind_the_defaults_matches_the_gas_runs(study, group):
+    """Kinetic theory's tau_v = m D / kT (hard spheres of the clump's volume) against the VACF of the
+    committed runs of five shapes: within 15 % (it is 0.90-1.01 of the measured)."""
+    sp = S.load(str(SPECS / f"{study}.toml"))
+    g = sp["groups"][group]
+    ratio = S.velocity_correlation_time(sp, g) / _measured_vacf_time(study, g["shape"])
+    assert 0.85 < ratio < 1.1, ratio
+
+
+def test_a_spec_of_shape_material_gas_and_cases_only_gets_its_times_from_the_gas(tmp_path):
+    """No [run] or [analysis] table: t_end, the recording, the lags and the fit window follow from
+    tau_v, the spec validates, and its runs can be placed and analysed."""
+    r = {"study": {"name": "mine", "results": str(tmp_path / "r"), "yade": "2023.02a"},
+         "material": {"density": 1140.0, "youngs_modulus": 1e7, "poisson": 0.4},
+         "gas": {"n_particles": 864, "volume_fraction": 0.001, "energy_per_particle": 3.75, "start": "equipartition"},
+         "shapes": {"d": {"kind": "dimer", "sphere_diameter": 0.1333, "overlap": 0.5}},
+         "groups": [{"shape": "d", "cases": ["exact", "uncorrected"], "seeds": [1, 2]}]}
+    sp = S.validate(r)
+    tau = sp["derived"]["tau_v"]
+    a, run = sp["analysis"], sp["run"]
+    assert a["t_eq"] == "auto" and run["dt_factor"] == 1.0
+    # each rounded to 1, 2, 2.5 or 5 x 10^k (at most a factor 2), up for lags and lengths, down for the rest
+    assert 4 * tau <= a["max_lag"] <= 8 * tau and 2.5 * tau <= a["fit_lo"] <= 5 * tau and 7 * tau <= a["fit_hi"] <= 14 * tau
+    assert 40 * tau <= run["t_end"] <= 80 * tau and 0.005 * tau <= run["rec_interval"] <= 0.01 * tau
+    assert S.runs(sp) and S.analysis_windows(sp) == ([0.0], a["max_lag"])
+    r["run"] = {"t_end": 150.0}                    # too short for the derived lags: said, not guessed
+    with pytest.raises(S.SpecError, match="analysis.fit_hi = 200 s does not fit the analysed window of 150 s"):
+        S.validate(r)
