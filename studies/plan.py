@@ -69,7 +69,9 @@ def estimate(params, own, per_body_step):
 
 
 def _fmt_h(s):
-    return "?" if math.isnan(s) else f"{s / 3600:.2f} h"
+    if math.isnan(s):
+        return "?"
+    return f"{s / 60:.1f} min" if s < 360 else f"{s / 3600:.2f} h"
 
 
 def plan(spec, log=print):
