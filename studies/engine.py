@@ -21,6 +21,7 @@ import io
 import json
 import os
 import shutil
+import statistics
 import time
 
 from . import reduce as red
@@ -200,6 +201,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     n_ok = n_flag = n_fail = n_sub = n_cancel = 0
     attempted = set()
     expected = {}             # run key -> expected wall seconds (the cost model), for the ETAs
+    done_walls = []           # wall seconds of the runs this sweep finished
     first = True
     try:
         while True:
@@ -290,6 +292,9 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                             raise err
                         with open(runner.record_path(rdir, run)) as fh:
                             _fill_done(row, json.load(fh), rdir)
+                        if not summ.get("reused"):   # the runs still queued: this sweep's measured pace
+                            done_walls.append(float(summ["wall_s"]))
+                            expected.update({futs[q]["key"]: statistics.median(done_walls) for q in pending})
                         flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
                         n_ok += summ["ok"]
                         n_flag += not summ["ok"]
