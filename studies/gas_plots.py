@@ -79,8 +79,9 @@ def plot_all(out, log=print):
     made = []
     with open(os.path.join(out, "params.json")) as f:
         params = json.load(f)
-    sub = (f"{params['n_particles']} particles, box {params['box_length']:.3f} m, "
-           f"{params['t_end']:g} s per run, t_eq = {params['t_eq']:g} s")
+    t_eq = params["t_eq"]
+    sub = (f"{params['n_particles']} particles, box {params['box_length']:.3f} m, {params['t_end']:g} s per run, "
+           + (f"t_eq = {t_eq:g} s" if isinstance(t_eq, (int, float)) else "t_eq detected per run (auto)"))
 
     msd = _read(os.path.join(out, "msd.csv"))
     if msd is not None and len(msd):

@@ -121,7 +121,8 @@ def test_a_studys_own_page_states_its_table_and_says_why_a_figure_is_missing(tmp
     """The page and the figures of a study of its own (no spheres case): its name in the titles, the
     paired interval of diff_D.csv on the page, and ratio.png reported as not drawn, with the reason."""
     from studies import gas_plots, study_page
-    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3, 4]}])
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact", "uncorrected"], "seeds": [1, 2, 3, 4]}],
+                  t_eq="auto", start="equipartition")
     rdir = engine.results_dir(sp)
     rng = np.random.default_rng(7)
     for run in S.runs(sp):
