@@ -189,7 +189,8 @@ def load(path):
         spec = validate(raw)
     except SpecError as e:
         raise SpecError(f"{path}: {e}") from None
-    spec["path"] = os.path.relpath(os.path.abspath(path), ROOT)
+    rel = os.path.relpath(os.path.abspath(path), ROOT)
+    spec["path"] = os.path.abspath(path) if rel.startswith("..") else rel   # a spec outside the repository: its full path
     return spec
 
 

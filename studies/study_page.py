@@ -33,6 +33,22 @@ def _paired_rows(out):
     return rows
 
 
+def _grains(p):
+    """Each shape's sphere count and its summed mass and k^2 errors against the exact union."""
+    from . import shapes as shp
+
+    rho = p.get("material", {}).get("density")
+    out = []
+    for name, shape in (p.get("shapes") or {}).items():
+        if rho is None:
+            continue
+        k2 = shp.k2_error(shape, rho)
+        out.append({"name": name, "n_spheres": len(shp.properties(shape, rho)["radii"]),
+                    "mass_error": _pct(shp.mass_error(shape, rho)),
+                    "k2_error": _pct(k2) if k2 == k2 else "?"})
+    return out
+
+
 def context(out):
     """The template's values for the study whose tables are in ``out``."""
     with open(os.path.join(out, "params.json")) as f:
@@ -50,7 +66,9 @@ def context(out):
         "n_particles": p.get("n_particles"), "shapes": ", ".join(p.get("shapes", {})),
         "volume_fraction": _num(gas.get("volume_fraction", p.get("volume_fraction"))),
         "box_length": _num(p.get("box_length"), ".4g"), "t_end": _num(p.get("t_end")), "dt": _num(p.get("dt"), ".3g"),
-        "t_eq": _num(p["t_eq"]) if isinstance(p.get("t_eq"), (int, float)) else str(p.get("t_eq", "?")),
+        "t_eq": f"t_eq = {_num(p['t_eq'])} s" if isinstance(p.get("t_eq"), (int, float))
+                else "t_eq detected per run (auto: the whole run from an equilibrated start)",
+        "grains": _grains(p),
         "density": _num(mat.get("density")), "youngs_modulus": _num(mat.get("youngs_modulus")),
         "poisson": _num(mat.get("poisson")),
         "paired": _paired_rows(out), "figures": figures, "not_drawn": gas_plots.not_drawn(out),

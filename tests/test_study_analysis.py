@@ -141,6 +141,8 @@ def test_a_studys_own_page_states_its_table_and_says_why_a_figure_is_missing(tmp
            f"[{100 * d.relative_ci_low:+.2f} %, {100 * d.relative_ci_high:+.2f} %] |")
     assert row in page
     assert "*ratio.png is not drawn: the paper's ratio needs the spheres case" in page
+    # the paper's dimer summed: 2 spheres against a union of 27/16 (their lens is 5/16 of a sphere)
+    assert f"its mass is off by\n{100 * (32 / 27 - 1):+.2f} %" in page
     assert "![diffusion.png](diffusion.png)" in page and "![ratio.png]" not in page
     params = json.loads((Path(rdir) / "params.json").read_text())
     assert gas_plots.msd_title(params) == f"{name}: mean-square displacement"
