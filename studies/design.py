@@ -233,14 +233,13 @@ def _run_cost(p, recs):
     return None if c is None else c / 3600.0
 
 
-def expected_wall_s_in(rdir, p):
-    """:func:`expected_wall_s` from every record under ``rdir``/runs (what a worker sees when a run
-    is about to start; no spec needed).  Unreadable files are skipped."""
+def read_records(pattern):
+    """Every finished run record among the files matching the glob ``pattern`` (dict by path);
+    unreadable files and other JSON are skipped."""
     import glob
-    import os
 
     recs = {}
-    for path in glob.glob(os.path.join(rdir, "runs", "*.json")):
+    for path in glob.glob(pattern):
         try:
             with open(path) as f:
                 rec = json.load(f)
@@ -248,7 +247,15 @@ def expected_wall_s_in(rdir, p):
             continue
         if isinstance(rec, dict) and "params" in rec and "wall_s" in rec:
             recs[path] = rec
-    return expected_wall_s(p, recs)
+    return recs
+
+
+def expected_wall_s_in(rdir, p):
+    """:func:`expected_wall_s` from every record under ``rdir``/runs (what a worker sees when a run
+    is about to start; no spec needed)."""
+    import os
+
+    return expected_wall_s(p, read_records(os.path.join(rdir, "runs", "*.json")))
 
 
 def expected_wall_s(p, recs):

@@ -11,8 +11,6 @@ Nothing runs and nothing is written.  A run's CPU time is estimated, in this ord
 """
 from __future__ import annotations
 
-import glob
-import json
 import math
 import os
 
@@ -32,17 +30,8 @@ def _bodies_and_steps(params):
 
 
 def committed_records(root=S.ROOT):
-    """Every reduced run record under ``root``/results/*/runs (dict by path); unreadable files skipped."""
-    recs = {}
-    for path in glob.glob(os.path.join(root, "results", "*", "runs", "*.json")):
-        try:
-            with open(path) as f:
-                rec = json.load(f)
-        except (OSError, ValueError):
-            continue
-        if isinstance(rec, dict) and "params" in rec and "wall_s" in rec:
-            recs[path] = rec
-    return recs
+    """Every reduced run record under ``root``/results/*/runs (dict by path)."""
+    return design.read_records(os.path.join(root, "results", "*", "runs", "*.json"))
 
 
 def seconds_per_body_step(recs):
