@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-templates", action="store_true",
                    help="lammps, deme: skip the per-clump .mol / .csv files (large batches: the .rigid/.data or the "
                    "JSON hold every clump)")
+    p.add_argument("--force", action="store_true",
+                   help="replace output files that exist (never the input FILE itself); without it nothing is written "
+                   "when any output file exists")
     p.add_argument("--version", action="version", version=f"clumpprops {__version__}")
     return p
 
@@ -56,7 +59,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         mp = compute(clumps, args.density, args.method)
         paths = export(clumps, args.to, args.out, args.density, args.method, source=args.file, scale=args.scale,
                        stem=args.name, mp=mp, warn=warnings.append,
-                       templates=not args.no_templates)
+                       templates=not args.no_templates, force=args.force)
     except ClumpGeometryError as exc:
         for c in clumps:  # point at the clump and its lines
             try:
