@@ -56,7 +56,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=(
             "The overlap column is 100*(m_sum/m - 1): how much summing the member spheres "
             "(YADE's default clump) overestimates the mass. Exit status: 0 ok, 1 error in the "
-            "input or geometry, 2 bad options."
+            "input or geometry, 2 bad options. Subcommand: 'clumpprops export FILE --to ENGINE' writes "
+            "the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, with the exact values "
+            "('clumpprops export --help' says which files)."
         ),
     )
     p.add_argument("file", metavar="FILE", help="textClumps file, or '-' for standard input")
@@ -248,7 +250,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if argv[:1] == ["export"]:  # clumpprops export FILE --to ENGINE (clumpprops/io/cli.py, docs/engines.md)
         from .io.cli import main as export_main
 
-        return export_main(argv[1:])
+        try:
+            return export_main(argv[1:])
+        except BrokenPipeError:  # its listing piped into head
+            sys.stdout = None
+            return 0
     parser = build_parser()
     args = parser.parse_args(argv)
     options = _method_options(args, parser)

@@ -131,9 +131,10 @@ def test_lammps_infile_columns(tmp_path):
 
 
 def test_repeated_yade_ids_get_distinct_names(tmp_path):
-    (tmp_path / "r.txt").write_text("0 0 0 0.1 0\n1 0 0 0.1 1\n2 0 0 0.1 0\n")
+    (tmp_path / "r.txt").write_text("0 0 0 0.1 0\n0.1 0 0 0.1 0\n1 0 0 0.1 1\n1.1 0 0 0.1 1\n"
+                                    "2 0 0 0.1 0\n2.1 0 0 0.1 0\n")
     names = [c.name for c in read(tmp_path / "r.txt")]
-    assert names == ["r_0", "r_1", "r_0_line3"]
+    assert names == ["r_0", "r_1", "r_0_line5"]
     assert len(export(read(tmp_path / "r.txt"), "liggghts", tmp_path / "o")) == 4
 
 

@@ -60,12 +60,12 @@ def inertia_words(inertia) -> List[str]:
     return [fnum(I[0, 0]), fnum(I[0, 1]), fnum(I[0, 2]), fnum(I[1, 1]), fnum(I[1, 2]), fnum(I[2, 2])]
 
 
-def sphere_file_text(clump: Clump, com, header: Sequence[str]) -> str:
+def sphere_file_text(clump: Clump, com) -> str:
+    """The sphere file: ``x y z r`` lines (m), centred on the clump's centre of mass (LIGGGHTS'
+    ``use_density`` needs this), and nothing else: LIGGGHTS 3.8.0 stops on '#' lines in it when run
+    with ``-screen none``, so its provenance goes into the deck as comments."""
     rel = clump.centers - np.asarray(com)
-    out = [f"# {h}" for h in header]
-    out.append("# x y z r (m), centred on the clump's centre of mass (LIGGGHTS use_density needs this)")
-    out.extend(fmt_rows(np.column_stack([rel, clump.radii])))
-    return "\n".join(out) + "\n"
+    return "\n".join(fmt_rows(np.column_stack([rel, clump.radii]))) + "\n"
 
 
 def fix_line(k: int, seed: int, clump: Clump, file_name: str, mass: float, inertia, density: float,
@@ -87,12 +87,16 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     hdr_text = "".join(f"# {h}\n" for h in hdr)
     written, fixes = [], []
     sd = seeds(len(clumps) + 1)
+    single = [c.name for c in clumps if c.n_spheres < 2]
+    if single:
+        raise ValueError(f"clump {single[0]} has one sphere: LIGGGHTS' particletemplate/multisphere needs two or more "
+                         "(insert it as a sphere with particletemplate/sphere)")
     for k, c in enumerate(clumps):
         fname = f"{c.name}.multisphere"
-        extra = [f"clump {c.name}: {c.n_spheres} spheres, mass {fnum(P.mass[k])} kg, centre of mass in the source "
-                 f"file's frame {' '.join(fnum(x) for x in P.com[k])} m"]
-        (out_dir / fname).write_text(sphere_file_text(c, P.com[k], hdr + extra))
+        (out_dir / fname).write_text(sphere_file_text(c, P.com[k]))
         written.append(out_dir / fname)
+        fixes.append(f"# {c.name}: {c.n_spheres} spheres in {fname} (x y z r in m, centred on the centre of mass; "
+                     f"in the source file's frame the centre of mass is at {' '.join(fnum(x) for x in P.com[k])} m)")
         fixes.append(f"# {c.name}: mass {fnum(P.mass[k])} kg, principal moments "
                      f"{' '.join(fnum(x) for x in P.moments[k])} kg m^2")
         fixes.append(fix_line(k + 1, sd[k], c, fname, P.mass[k], P.inertia[k], density))
