@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from clumpprops import mass_properties
-from clumpprops.io import Clump, ClumpFileError, export, read
+from clumpprops.io import Clump, ClumpFileError, detect_format, export, read
 from clumpprops.cli import main as cli_main
 from clumpprops.io import deme
 
@@ -192,7 +192,7 @@ BAD = [
     ("neg.txt", "0 0 0 -1 0\n", "neg.txt:1: radius must be > 0"),
     ("nodiam.mol", "title\n\n1 atoms\n\nCoords\n\n1 0 0 0\n", "nodiam.mol:7: end of file and no Diameters section"),
     ("negd.mol", "title\n\n1 atoms\n\nCoords\n\n1 0 0 0\n\nDiameters\n\n1 -0.2\n", "negd.mol:11: diameter must be > 0"),
-    ("clump.xyz", "0 0 0 1\n", "clump.xyz: unknown format (extension '.xyz')"),
+    ("clump.xyz", "Atoms. Timestep: 0\nC 0 0 0\n", "clump.xyz: unknown format (extension '.xyz', and its first lines show none)"),
 ]
 
 
@@ -232,3 +232,21 @@ def test_bad_mclump_and_options(tmp_path, capsys):
         with pytest.raises(SystemExit) as exc:
             cli_main(["export", str(tmp_path / "c"), *bad])
         assert exc.value.code == 2
+
+
+@pytest.mark.parametrize("name, text, fmt", [
+    ("clump.txt", "0.0,0.0,0.0,1.0\n0.0,0.0,1.2,1.0\n", "csv"),                    # CLUMP's comma table
+    ("clumpprops.txt", "x,y,z,r\n0,0,0,1\n0,0,1.2,1\n", "csv"),                   # with its header row
+    ("molecule.data", "# LAMMPS molecule\n\n2 atoms\n\nCoords\n\n1 0 0 0\n2 0 0 1.2\n\nDiameters\n\n1 2\n2 2\n",
+     "lammps"),
+    ("molecule.vshape", "# v\n\n2 atoms\n\nCoords\n\n1 0 0 0\n2 0 0 1.2\n\nDiameters\n\n1 2\n2 2\n", "lammps"),
+    ("stone1.test", "0 0 0 1\n0 0 1.2 1\n", "liggghts"),                          # LIGGGHTS' example name
+    ("clumps.dat", "0 0 0 1 7\n0 0 1.2 1 7\n", "yade"),                           # x y z r clumpId
+    ("stone.multisphere", "0 0 0 1 1\n0 0 1.2 1 1\n", "liggghts"),                # 5th column: atom type
+])
+def test_the_format_comes_from_the_content_where_the_name_does_not_tell_or_misleads(tmp_path, name, text, fmt):
+    p = tmp_path / name
+    p.write_text(text)
+    assert detect_format(p) == fmt
+    (c,) = read(p)
+    assert c.n_spheres == 2 and c.radii[0] == pytest.approx(1.0 if fmt != "lammps" else 1.0)

@@ -25,8 +25,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
         description="Write the files a DEM engine reads for the clumps in FILE, with the clumps' exact mass, "
-        "centre of mass and inertia (SI units). Input formats: " + ", ".join(FORMATS) + " (from the extension: "
-        ".csv, .multisphere/.ms/.spheres, Clump.txt or an MClump folder, .txt = YADE textClumps, .mol/.molecule).",
+        "centre of mass and inertia (SI units). Input formats: " + ", ".join(FORMATS) + " (from the file's first "
+        "lines: comma tables = csv, 'N atoms' = LAMMPS molecule, 'x y z r id' = YADE textClumps, 'x y z r' = "
+        "LIGGGHTS; else from the extension: .csv, .multisphere/.ms/.spheres, Clump.txt or an MClump folder, .txt, "
+        ".mol/.molecule). Writes the engine's files into --out (their names are listed on stdout); never over "
+        "FILE, and over existing files only with --force.",
     )
     p.add_argument("file", metavar="FILE")
     p.add_argument("--to", required=True, choices=ENGINES, help="target engine")
@@ -36,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD, help=f"default: {DEFAULT_METHOD}")
     p.add_argument("--scale", type=_positive_float, default=1.0, metavar="S",
                    help="multiply coordinates and radii by S, e.g. 0.001 for a file in mm (outputs are in m)")
-    p.add_argument("--from", dest="fmt", choices=FORMATS, help="input format (default: from the file name)")
+    p.add_argument("--from", dest="fmt", choices=FORMATS, help="input format (default: from the file's content, else its name)")
     p.add_argument("--name", metavar="STEM", help="stem of the output files that hold all clumps")
     p.add_argument("--no-templates", action="store_true",
                    help="lammps, deme: skip the per-clump .mol / .csv files (large batches: the .rigid/.data or the "

@@ -33,6 +33,7 @@ import contextlib
 import gc
 import math
 import os
+import re
 from pathlib import Path
 from typing import List, Optional
 
@@ -56,16 +57,55 @@ _EXT = {
 _NAMES = ("x", "y", "z", "r")
 
 
+def sniff_format(path, n_lines=50) -> Optional[str]:
+    """The format the first data lines of ``path`` show, or None where they show none:
+    ``lammps`` for a molecule file (an ``N atoms`` header line or a ``Coords`` section), ``csv``
+    for comma-separated numbers (CLUMP's and MClump's tables), ``yade`` for five whitespace-separated
+    columns whose fifth is an integer (textClumps' clump id), ``liggghts`` for four (``x y z r``)."""
+    try:
+        with open(path, "r", encoding="utf-8", errors="replace") as f:
+            head = [line for _, line in zip(range(n_lines), f)]
+    except OSError:
+        return None
+    words_seen = []
+    for line in strip_bom(head):
+        s = line.split("#", 1)[0].strip()
+        if not s:
+            continue
+        if re.fullmatch(r"\d+\s+atoms", s) or s == "Coords":
+            return "lammps"
+        words_seen.append(s)
+    data = [s for s in words_seen if s[:1] in "+-.0123456789"]
+    if not data:
+        return None
+    first = data[0]
+    if "," in first:
+        return "csv"
+    cols = first.split()
+    if len(cols) == 5 and re.fullmatch(r"[+-]?\d+", cols[4]):
+        return "yade"
+    if len(cols) == 4:
+        return "liggghts"
+    return None
+
+
 def detect_format(path) -> str:
-    """The format of ``path`` from its name (see the module table); ClumpFileError if unknown."""
+    """The format of ``path``: from its content where that shows one (:func:`sniff_format`: a
+    CLUMP comma table named ``.txt``, a LAMMPS molecule file named ``molecule.data``), else from
+    its name (see the module table); ClumpFileError if neither tells.  A five-column file named
+    like a LIGGGHTS sphere file stays ``liggghts`` (its fifth column is the atom type)."""
     p = Path(path)
     if p.is_dir() or p.name == "Clump.txt":
         return "mclump"
-    fmt = _EXT.get(p.suffix.lower())
+    by_name = _EXT.get(p.suffix.lower())
+    by_content = sniff_format(p) if p.is_file() else None
+    if by_content == "yade" and by_name == "liggghts":
+        return by_name
+    fmt = by_content or by_name
     if fmt is None:
         raise ClumpFileError(
-            f"unknown format (extension {p.suffix or 'none'!r}); name it {', '.join(sorted(_EXT))} "
-            f"or pass --from {{{','.join(FORMATS)}}}",
+            f"unknown format (extension {p.suffix or 'none'!r}, and its first lines show none); name it "
+            f"{', '.join(sorted(_EXT))} or pass --from {{{','.join(FORMATS)}}}",
             str(path),
         )
     return fmt
