@@ -1108,6 +1108,32 @@ inline double distance_to_overlap(const double* p, const double* cj, double rj, 
   return d;
 }
 
+// Whether balls i, j, k share a region of positive volume, decided the same way for every order
+// in which the three are listed: the three are put in a canonical order (radius, then centre),
+// and the triple counts if any of them reaches the overlap region of the other two (each of the
+// three tests is exact in exact arithmetic; asking all three keeps a round-off miss in one of
+// them from deciding alone).
+inline bool triple_overlap(const double* c, const double* r, int i, int j, int k) {
+  int s[3] = {i, j, k};
+  auto before = [&](int a, int b) {
+    if (r[a] != r[b]) return r[a] < r[b];
+    for (int x = 0; x < 3; ++x)
+      if (c[3 * a + x] != c[3 * b + x]) return c[3 * a + x] < c[3 * b + x];
+    return false;
+  };
+  small_sort(s, 3, before);
+  for (int t = 0; t < 3; ++t) {
+    const int p = s[t], a = s[t == 0 ? 1 : 0], b = s[t == 2 ? 1 : 2];
+    const double dv[3] = {c[3 * b] - c[3 * a], c[3 * b + 1] - c[3 * a + 1], c[3 * b + 2] - c[3 * a + 2]};
+    const double D = std::sqrt(dot3(dv, dv));
+    double e[3] = {0.0, 0.0, 1.0};
+    if (D > 0.0)
+      for (int x = 0; x < 3; ++x) e[x] = dv[x] / D;
+    if (distance_to_overlap(c + 3 * p, c + 3 * a, r[a], c + 3 * b, r[b], D, e) < r[p]) return true;
+  }
+  return false;
+}
+
 struct PairwiseWorkspace {
   PairSearch search;
   std::vector<Pair> pairs;
@@ -1146,12 +1172,10 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
     for (int s = w.adj_start[j]; s < w.adj_start[j + 1]; ++s) {
       const int k = w.adj[s];
       if (k <= j) continue;
-      const Pair& jk = P[w.pair_of[s]];
       for (int u = w.adj_start[k]; u < w.adj_start[k + 1]; ++u) {
         const int i = w.adj[u];
         if (i >= j || w.mark[i] < 0) continue;
-        const double dist = distance_to_overlap(c + 3 * i, c + 3 * j, r[j], c + 3 * k, r[k], jk.D, jk.e);
-        if (dist < r[i]) {
+        if (triple_overlap(c, r, i, j, k)) {
           if (t.count == 0 || std::make_pair(i, std::make_pair(j, k)) < std::make_pair(t.i, std::make_pair(t.j, t.k))) {
             t.i = i;
             t.j = j;

@@ -1,0 +1,99 @@
+"""Adversarial input: every clump gets the right answer or a clear refusal.
+
+* the pairwise method refuses every clump with a triple overlap, whatever the order of its
+  spheres (coincident and near-coincident pairs cut by a third sphere included), checked
+  against an independent convex-minimisation criterion;
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+import clumpprops as cp
+from clumpprops import _input
+from clumpprops.pairwise import pairwise_moments
+
+PERMS = list(itertools.permutations(range(3)))
+
+
+def _twin_pair_cut_by_third(rng, gap):
+    """Spheres 1 and 2 are one sphere (centres `gap` apart), sphere 0 cuts into it by >= 5 % of r."""
+    c = rng.normal(size=(3, 3))
+    r = rng.uniform(0.5, 1.5, 3)
+    r[2] = r[1]
+    u = rng.normal(size=3)
+    c[2] = c[1] + gap * u / np.linalg.norm(u)
+    v = rng.normal(size=3)
+    depth = rng.uniform(0.05, 0.95) * min(r[0], r[1]) * 2
+    c[0] = c[1] + (r[0] + r[1] - depth) * v / np.linalg.norm(v)
+    return c, r
+
+
+def _refuses_core(c, r):
+    try:
+        cp.mass_properties(c, r, method="pairwise")
+    except cp.ClumpGeometryError:
+        return True
+    return False
+
+
+def _refuses_numpy(c, r):
+    try:
+        pairwise_moments(_input.normalize(c, r))
+    except cp.ClumpGeometryError:
+        return True
+    return False
+
+
+@pytest.mark.parametrize("gap", [0.0, 1e-300, 1e-184, 1e-20])
+def test_pairwise_refuses_a_twin_pair_cut_by_a_third_sphere_in_every_order(gap):
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        c, r = _twin_pair_cut_by_third(rng, gap)
+        for perm in PERMS:
+            p = list(perm)
+            assert _refuses_core(c[p], r[p]), (c[p].tolist(), r[p].tolist())
+            assert _refuses_numpy(c[p], r[p]), (c[p].tolist(), r[p].tolist())
+
+
+def _triple_depth(c, r):
+    """min over x of max_i (|x - c_i| - r_i): < 0 iff the three balls share an interior point.
+
+    A convex function, minimised from the pairwise contact points and the centres (an
+    independent route: no lens, no rim circle)."""
+    f = lambda x: float(np.max(np.linalg.norm(x - c, axis=1) - r))
+    starts = list(c) + [(r[b] * c[a] + r[a] * c[b]) / (r[a] + r[b]) for a, b in ((0, 1), (0, 2), (1, 2))]
+    x0 = min(starts, key=f)
+    res = minimize(f, x0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-12, "maxiter": 2000})
+    return min(f(x0), res.fun)
+
+
+def test_pairwise_triple_decision_is_the_same_in_every_order_and_right():
+    rng = np.random.default_rng(5)
+    decided = {True: 0, False: 0}
+    while min(decided.values()) < 25:
+        c = rng.normal(size=(3, 3)) * 0.8
+        r = rng.uniform(0.4, 1.2, 3)
+        k = rng.integers(4)
+        if k == 1:  # a near-coincident pair
+            c[2], r[2] = c[1] + rng.normal(size=3) * 1e-9, r[1]
+        elif k == 2:  # nested pair
+            c[2], r[2] = c[1] + rng.normal(size=3) * 0.05, r[1] * 0.5
+        elif k == 3:  # around a hole: a triangle of side 1, radii between 1/2 and 1/sqrt(3)
+            c = np.array([[0.0, 0, 0], [1, 0, 0], [0.5, np.sqrt(0.75), 0]]) + rng.normal(size=(3, 3)) * 0.02
+            r = rng.uniform(0.51, 0.6, 3)
+        D = np.linalg.norm(c[:, None] - c[None], axis=-1)
+        if not np.all((D < r[:, None] + r[None])[np.triu_indices(3, 1)]):
+            continue  # not a triangle of overlapping pairs: nothing to decide
+        depth = _triple_depth(c, r)
+        if abs(depth) < 1e-3 * r.min():
+            continue  # too close to tangency for the minimiser to be trusted
+        want = depth < 0
+        for perm in PERMS:
+            p = list(perm)
+            assert _refuses_core(c[p], r[p]) == want
+            assert _refuses_numpy(c[p], r[p]) == want
+        decided[want] += 1
