@@ -87,14 +87,16 @@ def _flatten(centers, radii):
         if len(radii) != M:
             return None
         if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
-            try:
-                c = np.asarray(centers[0], dtype=_F64)
-                r = np.asarray(radii[0], dtype=_F64)
-            except (TypeError, ValueError):
+            c, r = _real(centers[0]), _real(radii[0])
+            if c is None or r is None:
                 return None
             if c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
                 return None
             return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
+        if not (_input.real_pieces(centers) and _input.real_pieces(radii)):
+            centers, radii = [_real(x) for x in centers], [_real(x) for x in radii]
+            if any(x is None for x in centers) or any(x is None for x in radii):
+                return None  # booleans, complex numbers, strings: normalize explains
         try:
             nc = np.fromiter(map(len, centers), np.int64, M)
             nr = np.fromiter(map(len, radii), np.int64, M)
@@ -108,10 +110,8 @@ def _flatten(centers, radii):
         np.cumsum(nc, out=starts[1:])
         N = int(nc[0]) if np.all(nc == nc[0]) else 0
         return np.ascontiguousarray(c), r, (None if N else starts), N, M, True
-    try:
-        c = np.asarray(centers, dtype=_F64)
-        r = np.asarray(radii, dtype=_F64)
-    except (TypeError, ValueError):
+    c, r = _real(centers), _real(radii)
+    if c is None or r is None:
         return None
     if c.ndim == 2 and c.shape[1] == 3 and r.shape == (c.shape[0],) and c.shape[0] > 0:
         return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, False
@@ -119,6 +119,14 @@ def _flatten(centers, radii):
         M, N = c.shape[:2]
         return np.ascontiguousarray(c).reshape(M * N, 3), np.ascontiguousarray(r).reshape(M * N), None, N, M, True
     return None
+
+
+def _real(x):
+    """x as a float64 array, or None where it is not an array of real numbers (normalize explains)."""
+    try:
+        return _input._as_float_array(x, "")
+    except ValueError:
+        return None
 
 
 def _compiled(centers, radii, rho, name):

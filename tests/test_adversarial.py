@@ -3,10 +3,14 @@
 * the pairwise method refuses every clump with a triple overlap, whatever the order of its
   spheres (coincident and near-coincident pairs cut by a third sphere included), checked
   against an independent convex-minimisation criterion;
+* complex numbers, booleans, strings and numbers beyond float64 are refused with one
+  ValueError, for every method;
+* Monte Carlo sample counts and voxel grids beyond the stated limits are refused;
 """
 from __future__ import annotations
 
 import itertools
+import warnings
 
 import numpy as np
 import pytest
@@ -14,6 +18,7 @@ from scipy.optimize import minimize
 
 import clumpprops as cp
 from clumpprops import _input
+from clumpprops.methods import MAX_DISCRETIZATION, MAX_SAMPLES, MonteCarlo, Voxel
 from clumpprops.pairwise import pairwise_moments
 
 PERMS = list(itertools.permutations(range(3)))
@@ -97,3 +102,69 @@ def test_pairwise_triple_decision_is_the_same_in_every_order_and_right():
             assert _refuses_core(c[p], r[p]) == want
             assert _refuses_numpy(c[p], r[p]) == want
         decided[want] += 1
+
+
+# ---------------------------------------------------------------- input that is not a real number
+_C2 = np.array([[0.0, 0, 0], [1, 0, 0]])
+_R2 = np.array([1.0, 0.8])
+BAD_INPUT = {
+    "complex centers": (lambda: (_C2 + 0j, _R2, 1.0), "complex"),
+    "complex radii": (lambda: (_C2, _R2 + 0j, 1.0), "complex"),
+    "boolean radii": (lambda: (_C2, np.array([True, True]), 1.0), "boolean"),
+    "string radii": (lambda: (_C2, ["1", "0.8"], 1.0), "string"),
+    "string centers": (lambda: ([["0", "0", "0"], ["1", "0", "0"]], _R2, 1.0), "string"),
+    "huge Python int centre": (lambda: ([[10**400, 0, 0], [1, 0, 0]], _R2, 1.0), "too large"),
+    "huge Python int radius": (lambda: (_C2, [10**400, 1], 1.0), "too large"),
+    "ragged complex radii": (lambda: ([_C2, _C2[:1]], [_R2 + 0j, _R2[:1]], 1.0), "complex"),
+    "ragged boolean radii": (lambda: ([_C2, _C2[:1]], [_R2, np.array([True])], 1.0), "boolean"),
+    "density True": (lambda: (_C2, _R2, True), "density"),
+    "density string": (lambda: (_C2, _R2, "2"), "density"),
+    "density complex": (lambda: (_C2, _R2, 2 + 0j), "density"),
+    "density huge Python int": (lambda: (_C2, _R2, 10**400), "too large"),
+}
+
+
+@pytest.mark.parametrize("method", ["exact", "pairwise", "sum", "montecarlo", "voxel"])
+@pytest.mark.parametrize("case", sorted(BAD_INPUT))
+def test_input_that_is_not_a_real_number_is_refused_with_one_value_error(case, method):
+    make, word = BAD_INPUT[case]
+    c, r, rho = make()
+    opts = {"n_samples": 1000} if method == "montecarlo" else {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a ComplexWarning is not a refusal
+        with pytest.raises(ValueError, match=word):
+            cp.mass_properties(c, r, rho, method=method, **opts)
+
+
+def test_real_input_of_any_numeric_type_gives_the_float_answer():
+    want = cp.mass_properties(_C2, np.array([1.0, 2.0]), 3.0)
+    for c, r, rho in [(_C2.tolist(), [1, 2], 3), (_C2.astype(np.float32), np.array([1, 2], np.int64), np.float32(3)),
+                      ([_C2], [np.array([1, 2], np.uint8)], np.int64(3)), ([[0, 0, 0], [10**0, 0, 0]], [1, 2], 3.0)]:
+        got = cp.mass_properties(c, r, rho)
+        assert np.allclose(np.ravel(got.mass), want.mass, rtol=1e-15, atol=0)
+        assert np.allclose(np.reshape(got.inertia, (3, 3)), want.inertia, rtol=1e-15, atol=1e-15 * want.inertia.max())
+
+
+# ---------------------------------------------------------------- stated limits of the baselines
+@pytest.mark.parametrize("kw, word", [
+    ({"method": "montecarlo", "n_samples": 10**15}, "n_samples is too large"),
+    ({"method": "voxel", "discretization": 10**6}, "discretization is too large"),
+    ({"method": "montecarlo", "n_samples": True}, "integer"),
+    ({"method": "voxel", "discretization": "10"}, "integer"),
+])
+def test_sample_counts_and_grids_beyond_the_stated_limit_are_refused(kw, word):
+    with pytest.raises(ValueError, match=word):
+        cp.mass_properties(_C2, _R2, **kw)
+
+
+def test_method_objects_refuse_counts_beyond_the_stated_limit():
+    with pytest.raises(ValueError, match="too large"):
+        MonteCarlo(n_samples=MAX_SAMPLES + 1)
+    with pytest.raises(ValueError, match="too large"):
+        Voxel(discretization=MAX_DISCRETIZATION + 1)
+
+
+def test_an_elongated_voxel_grid_beyond_the_cell_limit_is_refused():
+    c = np.stack([np.linspace(0, 200, 300), np.zeros(300), np.zeros(300)], 1)
+    with pytest.raises(ValueError, match="voxel grid is too large"):
+        cp.mass_properties(c, np.ones(300), method="voxel", discretization=MAX_DISCRETIZATION)
