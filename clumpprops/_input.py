@@ -63,7 +63,7 @@ _REAL_KINDS = "fiu"  # numpy dtype kinds taken as real numbers (float, signed an
 def _refuse_kind(kind, name):
     what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes", "M": "dates",
             "m": "time deltas", "V": "records"}.get(kind, f"values of dtype kind {kind!r}")
-    raise ValueError(f"{name} must be real numbers, got {what}")
+    raise ValueError(f"{name} must be numeric: real numbers, got {what}")
 
 
 def _object_to_float(a, name):
