@@ -135,6 +135,7 @@ def _compiled(centers, radii, rho, name):
         _input.normalize(centers, radii)  # raises ValueError naming the problem
         raise ValueError("centers and radii do not form clumps of spheres")  # pragma: no cover
     c, r, starts, N, M, batched = flat
+    c, r, exponent = _unit_scale(c, r, starts, N, M)
     mass, vol = np.empty(M), np.empty(M)
     com, inertia = np.empty((M, 3)), np.empty((M, 3, 3))
     w, axes = np.empty((M, 3)), np.empty((M, 3, 3))
@@ -144,11 +145,61 @@ def _compiled(centers, radii, rho, name):
                            mass, vol, com, inertia, w, axes)
         if status[0]:
             _core_error(status, centers, radii, batched, name)
+    if exponent is not None:
+        mass, vol, com, inertia, w = _scale_back(exponent, mass, vol, com, inertia, w)
+    _check_representable(mass, w, batched)
     for a in (mass, vol, com, inertia, w, axes):
         a.flags.writeable = False
     if not batched:
         return MassProperties._make(float(mass[0]), float(vol[0]), com[0], inertia[0], w[0], axes[0], name, rho)
     return MassProperties._make(mass, vol, com, inertia, w, axes, name, rho)
+
+
+_SCALE_FREE = 2.0**-20, 2.0**20  # clumps with every radius in this band are computed as given
+
+
+def _unit_scale(c, r, starts, N, M):
+    """Each clump divided by a power of two 2^e near its largest radius (exact: only exponents change).
+
+    Returns (centres, radii, e per clump), or the input and None when every radius lies in
+    _SCALE_FREE (no clump needs it).  The core then works with radii near 1, so no power of a
+    length (up to r^5 and the lens formulas' l^8) under- or overflows on the way, and the
+    results scale back exactly: lengths by 2^e, volume and mass by 2^3e, inertia by 2^5e.
+    """
+    if not len(r) or (_SCALE_FREE[0] <= np.min(r) and np.max(r) <= _SCALE_FREE[1]):
+        return c, r, None
+    with np.errstate(invalid="ignore"):
+        rmax = r.reshape(M, N).max(axis=1) if starts is None else np.maximum.reduceat(r, starts[:-1])
+    exponent = np.frexp(np.where(np.isfinite(rmax) & (rmax > 0), rmax, 1.0))[1]
+    per_sphere = np.repeat(exponent, N) if starts is None else np.repeat(exponent, np.diff(starts))
+    c_unit = np.ldexp(c, -per_sphere[:, None])
+    if np.any(np.isinf(c_unit) & np.isfinite(c)):
+        raise ValueError("a clump's centres are too large relative to its radii (|centre| / radius beyond "
+                         "~1e308): positions cannot resolve spheres that small there")
+    return np.ascontiguousarray(c_unit), np.ldexp(r, -per_sphere), exponent
+
+
+def _scale_back(exponent, mass, vol, com, inertia, w):
+    e = exponent
+    with np.errstate(over="ignore", under="ignore"):
+        return (np.ldexp(mass, 3 * e), np.ldexp(vol, 3 * e), np.ldexp(com, e[:, None]),
+                np.ldexp(inertia, 5 * e[:, None, None]), np.ldexp(w, 5 * e[:, None]))
+
+
+_TINY = np.finfo(np.float64).tiny  # the smallest normal float64; below it values lose digits
+
+
+def _check_representable(mass, w, batched):
+    """ValueError, naming the direction, where a mass or an inertia is beyond float64's normal range."""
+    big = ~np.isfinite(mass) | ~np.all(np.isfinite(w), axis=1)
+    small = (np.abs(mass) < _TINY) | (np.max(np.abs(w), axis=1) < _TINY)
+    for bad, word, why in ((big, "too large", "overflows float64 (above ~1.8e308)"),
+                           (small, "too small", "underflows float64 (below ~2.2e-308, where digits are lost)")):
+        if np.any(bad):
+            m = int(np.flatnonzero(bad)[0])
+            where = f" of clump {m}" if batched else ""
+            raise ValueError(f"input {word}: the mass or inertia{where} {why}; mass scales as density * r^3 "
+                             "and inertia as density * r^5; express the input in other units")
 
 
 def _core_error(status, centers, radii, batched, name):
@@ -164,8 +215,8 @@ def _core_error(status, centers, radii, batched, name):
         )
     if code == _core.OVERFLOW:
         raise ValueError(
-            "the clump's moments overflow float64 (input too large: radius^5 * density must stay "
-            f"below ~1e308 in SI units){where}; rescale the input"
+            "the clump's moments overflow float64 (input too large: density * radius^5 must stay "
+            f"below ~1e308 in SI units){where}; express the input in other units"
         )
     if code == _core.NONPOSITIVE_VOLUME:
         raise ArithmeticError(f"internal error in method {name!r}: non-positive volume{where}")

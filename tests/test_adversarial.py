@@ -168,3 +168,56 @@ def test_an_elongated_voxel_grid_beyond_the_cell_limit_is_refused():
     c = np.stack([np.linspace(0, 200, 300), np.zeros(300), np.zeros(300)], 1)
     with pytest.raises(ValueError, match="voxel grid is too large"):
         cp.mass_properties(c, np.ones(300), method="voxel", discretization=MAX_DISCRETIZATION)
+
+
+# ---------------------------------------------------------------- any scale
+def _scaled_cases():
+    rng = np.random.default_rng(1)
+    return {"exact": (rng.normal(size=(6, 3)), rng.uniform(0.6, 1.2, 6)),
+            "pairwise": (np.array([[0.0, 0, 0], [1.5, 0, 0], [0.2, 1.6, 0.3]]), np.array([1.0, 0.8, 0.7])),
+            "sum": (rng.normal(size=(4, 3)), rng.uniform(0.6, 1.2, 4))}
+
+
+@pytest.mark.parametrize("method", ["exact", "pairwise", "sum"])
+def test_scaled_clumps_are_exact_where_representable_else_refused_naming_the_direction(method):
+    """Scaling lengths by s scales mass by s^3 and inertia by s^5 (an exact symmetry): the
+    answer at s equals the answer at 1 times those powers to 1e-13, or, where mass or inertia
+    leaves float64's normal range, a ValueError saying 'too large' or 'too small'."""
+    c, r = _scaled_cases()[method]
+    base = cp.mass_properties(c, r, 1.0, method=method)
+    tiny, huge = np.finfo(float).tiny, np.finfo(float).max
+    for k in range(-100, 101):
+        s = 3.0 * 10.0**k if k % 2 else 10.0**k
+        logs = np.log10(s)
+        lo = min(3 * logs + np.log10(base.mass), 5 * logs + np.log10(base.principal_moments.max()))
+        hi = max(3 * logs + np.log10(base.mass), 5 * logs + np.log10(base.principal_moments.max()))
+        representable = lo > np.log10(tiny) + 1 and hi < np.log10(huge) - 1
+        try:
+            mp = cp.mass_properties(c * s, r * s, 1.0, method=method)
+        except ValueError as exc:
+            assert not representable, (k, str(exc))
+            word = "too large" if hi >= np.log10(huge) - 1 else "too small"
+            assert word in str(exc), (k, str(exc))
+            continue
+        if not representable:  # at the edge of the range: an answer must still be right
+            assert np.log10(tiny) <= lo and hi <= np.log10(huge), k
+        assert mp.mass == pytest.approx(base.mass * s**3, rel=1e-13)
+        assert np.allclose(mp.center_of_mass, base.center_of_mass * s, rtol=0, atol=1e-13 * s * np.abs(c).max())
+        scale = base.principal_moments.max()
+        # s^5 may itself overflow where the inertia does not: scale the answer down instead
+        assert np.max(np.abs(mp.inertia / s**2 / s**3 - base.inertia)) <= 1e-13 * scale, k
+
+
+def test_a_far_tiny_clump_keeps_its_digits():
+    """Radii near 1e-9 m about 1e6 m from the origin (and radii near 1e-60 m): the answer of
+    the same clump (as its rounded input holds it) moved to the origin at unit scale, with
+    powers of two so that moving and scaling back are exact."""
+    c0, r0 = _scaled_cases()["exact"]
+    for s, shift in [(2.0**-30, 2.0**20), (2.0**-200, 0.0), (2.0**-200, 2.0**-170)]:
+        c, r = c0 * s + shift, r0 * s
+        ref = cp.mass_properties((c - shift) / s, r / s, 1.0)
+        mp = cp.mass_properties(c, r, 1.0)
+        assert mp.mass == pytest.approx(ref.mass * s**3, rel=1e-13)
+        com_digits = max(1e-13, np.spacing(shift) / s)  # the position of the centre holds no more
+        assert np.allclose((mp.center_of_mass - shift) / s, ref.center_of_mass, rtol=0, atol=com_digits)
+        assert np.max(np.abs(mp.inertia / s**5 - ref.inertia)) <= 1e-13 * ref.principal_moments.max()
