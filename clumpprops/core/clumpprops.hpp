@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -39,6 +40,10 @@ constexpr double kCoincidentCaps = 1e-13;
 // than that are not ordered reliably after rounding)
 constexpr double kNearTouchingSin2 = 1e-4;
 constexpr double kTouchingChord = 1e-14;
+// event lists up to this length are insertion-sorted, longer ones with std::sort
+constexpr int kSmallSort = 32;
+// clumps above this many spheres are checked for exact duplicates before the pair search
+constexpr int kDedupAbove = 64;
 // safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
 
@@ -766,9 +771,13 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
       dG = 0.0;
     } else {
-      small_sort(E, P, [](const Event& x, const Event& y) {
-        return x.key < y.key || (x.key == y.key && x.type > y.type);
-      });
+      auto by_key = [](const Event& x, const Event& y) { return x.key < y.key || (x.key == y.key && x.type > y.type); };
+      // insertion sort for the usual few events, O(P log P) for the many of dense clumps (where
+      // it was O(P^2) per circle, O(K^3) per sphere)
+      if (P <= kSmallSort)
+        small_sort(E, P, by_key);
+      else
+        std::sort(E, E + P, by_key);
       int depth = egl[k];
       for (int p = 0; p < P; ++p) {
         depth += E[p].type;
@@ -880,8 +889,35 @@ struct ExactWorkspace {
   std::vector<int> start, count;
   std::vector<signed char> drop, copy, coinc;
   std::vector<double> alpha;
+  std::vector<int> order;
+  std::vector<double> unique_c, unique_r;
   Arrangement arr;
 };
+
+// For clumps of more than kDedupAbove spheres: if some spheres are exact duplicates (same centre
+// and radius, bit for bit), the first of each group in w.unique_c, w.unique_r (input order kept)
+// and true; else false.  O(n log n); the union, and so the exact method's answer, is unchanged,
+// and n identical spheres cost O(n log n) time and O(n) memory instead of n^2 / 2 pairs.
+inline bool drop_duplicates(const double* c, const double* r, int n, ExactWorkspace& w) {
+  if (n <= kDedupAbove) return false;
+  w.order.resize(n);
+  for (int i = 0; i < n; ++i) w.order[i] = i;
+  auto key = [&](int i) { return std::make_tuple(r[i], c[3 * i], c[3 * i + 1], c[3 * i + 2]); };
+  std::sort(w.order.begin(), w.order.end(), [&](int a, int b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
+  signed char* dup = filled(w.drop, n, static_cast<signed char>(0));
+  bool any = false;
+  for (int q = 1; q < n; ++q)
+    if (key(w.order[q]) == key(w.order[q - 1])) dup[w.order[q]] = any = 1;
+  if (!any) return false;
+  w.unique_c.clear();
+  w.unique_r.clear();
+  for (int i = 0; i < n; ++i)
+    if (!dup[i]) {
+      w.unique_c.insert(w.unique_c.end(), c + 3 * i, c + 3 * i + 3);
+      w.unique_r.push_back(r[i]);
+    }
+  return true;
+}
 
 // Caps of every sphere (sorted by owner, then other) and the buried spheres.
 inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
@@ -1009,6 +1045,15 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
 
 inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
   out.clear();
+  if (drop_duplicates(c, r, n, w)) {
+    std::vector<double> uc, ur;  // own copies: the workspace's buffers are reused below
+    uc.swap(w.unique_c);
+    ur.swap(w.unique_r);
+    exact_moments(uc.data(), ur.data(), static_cast<int>(ur.size()), out, w);
+    uc.swap(w.unique_c);
+    ur.swap(w.unique_r);
+    return;
+  }
   exact_caps(c, r, n, w);
   SurfaceMoments s;
   for (int i = 0; i < n; ++i) {
