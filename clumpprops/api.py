@@ -51,8 +51,22 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
         ``"pairwise"`` / ``Pairwise()``: the paper's eqs. (1)-(7); raises
         ClumpGeometryError where three spheres share a region.
         ``"sum"`` / ``Sum()``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
-        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``.
-        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme.
+        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``;
+        at most 10^9 samples.
+        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme; discretization
+        at most 1000 and at most 10^9 cells per clump.
+
+    Spheres that do not change the union: ``exact`` drops exact duplicates (in clumps of more
+    than 64 spheres, before the pair search) and spheres contained in another; ``pairwise``
+    takes the spheres as given (a contained pair removes the smaller sphere, eq. 1-7's lens
+    rule; a duplicate pair cut by a third sphere is a triple overlap and refused); ``sum``
+    drops nothing (it reproduces the engines' sums, duplicates counted each time).
+
+    ``exact``, ``pairwise`` and ``sum`` are scale-free: each clump is computed in units of a
+    power of two near its largest radius and scaled back exactly, so the answer is exact
+    wherever mass (~ density r^3) and inertia (~ density r^5) are normal float64 numbers;
+    beyond that range a ValueError says "too large" or "too small".  Complex numbers,
+    booleans, strings and numbers beyond float64 are refused with a ValueError.
 
     Returns
     -------
