@@ -180,7 +180,7 @@ def _unit_scale(c, r, starts, N, M):
     length (up to r^5 and the lens formulas' l^8) under- or overflows on the way, and the
     results scale back exactly: lengths by 2^e, volume and mass by 2^3e, inertia by 2^5e.
     """
-    if not len(r) or (_SCALE_FREE[0] <= np.min(r) and np.max(r) <= _SCALE_FREE[1]):
+    if not len(r) or (_SCALE_FREE[0] <= r.min() and r.max() <= _SCALE_FREE[1]):
         return c, r, None
     with np.errstate(invalid="ignore"):
         rmax = r.reshape(M, N).max(axis=1) if starts is None else np.maximum.reduceat(r, starts[:-1])
@@ -205,6 +205,9 @@ _TINY = np.finfo(np.float64).tiny  # the smallest normal float64; below it value
 
 def _check_representable(mass, w, batched):
     """ValueError, naming the direction, where a mass or an inertia is beyond float64's normal range."""
+    largest = w[:, 2]  # ascending principal moments: the largest
+    if _TINY <= mass.min() and mass.max() < np.inf and _TINY <= largest.min() and w.max() < np.inf:
+        return  # (NaN fails every comparison and takes the slow path)
     big = ~np.isfinite(mass) | ~np.all(np.isfinite(w), axis=1)
     small = (np.abs(mass) < _TINY) | (np.max(np.abs(w), axis=1) < _TINY)
     for bad, word, why in ((big, "too large", "overflows float64 (above ~1.8e308)"),
