@@ -252,3 +252,22 @@ def test_a_large_clump_with_repeated_spheres_is_the_union_of_the_distinct_ones()
     assert np.max(np.abs(got.inertia - want.inertia)) <= 1e-12 * want.principal_moments.max()
     mc = cp.mass_properties(c, r, method="montecarlo", n_samples=200_000, seed=4)
     assert abs(got.mass - mc.mass) <= 5 * mc.standard_error.mass
+
+
+def test_thousands_of_spheres_inside_one_ball_are_that_ball():
+    """3,000 spheres nested in one ball (concentric ones, and random ones inside it, some
+    touching its surface from inside): the union is the ball, closed form."""
+    rng = np.random.default_rng(8)
+    R, centre = 2.0, np.array([0.5, -1.0, 3.0])
+    r_in = rng.uniform(0.01, 1.5, 2000)
+    u = rng.normal(size=(2000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    d = (R - r_in) * np.where(rng.random(2000) < 0.2, 1.0, rng.uniform(0, 1, 2000))
+    c = np.vstack([centre + d[:, None] * u, np.tile(centre, (1000, 1)), [centre]])
+    r = np.concatenate([r_in, np.linspace(0.01, R * (1 - 1e-9), 1000), [R]])
+    p = rng.permutation(len(r))
+    mp = cp.mass_properties(c[p], r[p], 1.5)
+    m_ball = 4.0 / 3.0 * np.pi * R**3 * 1.5
+    assert mp.mass == pytest.approx(m_ball, rel=1e-14)
+    assert np.allclose(mp.center_of_mass, centre, rtol=0, atol=1e-14 * R)
+    assert np.allclose(mp.inertia, 0.4 * m_ball * R**2 * np.eye(3), rtol=0, atol=1e-14 * m_ball * R**2)

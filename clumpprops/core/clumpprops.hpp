@@ -42,7 +42,7 @@ constexpr double kNearTouchingSin2 = 1e-4;
 constexpr double kTouchingChord = 1e-14;
 // event lists up to this length are insertion-sorted, longer ones with std::sort
 constexpr int kSmallSort = 32;
-// clumps above this many spheres are checked for exact duplicates before the pair search
+// clumps above this many spheres are checked for duplicate and contained spheres before the pair search
 constexpr int kDedupAbove = 64;
 // safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
@@ -894,25 +894,48 @@ struct ExactWorkspace {
   Arrangement arr;
 };
 
-// For clumps of more than kDedupAbove spheres: if some spheres are exact duplicates (same centre
-// and radius, bit for bit), the first of each group in w.unique_c, w.unique_r (input order kept)
-// and true; else false.  O(n log n); the union, and so the exact method's answer, is unchanged,
-// and n identical spheres cost O(n log n) time and O(n) memory instead of n^2 / 2 pairs.
-inline bool drop_duplicates(const double* c, const double* r, int n, ExactWorkspace& w) {
+// whether sphere a lies in sphere b by exact_caps' scale-aware rule (and, where each lies in the
+// other, a is the one exact_caps buries: the later in the order larger radius first, then lower index)
+inline bool buried_by(const double* c, const double* r, int a, int b) {
+  const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
+  const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double tol = kTauNested * std::min(r[a], r[b]);
+  if (!((r[a] - r[b]) + D <= tol)) return false;
+  const bool b_in_a = (r[b] - r[a]) + D <= tol;
+  return !b_in_a || r[b] > r[a] || (r[b] == r[a] && b < a);
+}
+
+// For clumps of more than kDedupAbove spheres, the spheres that cannot change the union are
+// dropped before the pair search: exact duplicates (same centre and radius, bit for bit; the first
+// of each group stays) and spheres that exact_caps would bury inside one of the kContainers
+// largest spheres.  The rest go to w.unique_c, w.unique_r in input order; returns false if none
+// is dropped.  O(n log n); n identical or nested spheres then cost O(n) memory instead of the n^2/2
+// pairs of the search, and the exact method's answer is unchanged (the union is).
+constexpr int kContainers = 8;
+inline bool drop_redundant(const double* c, const double* r, int n, ExactWorkspace& w) {
   if (n <= kDedupAbove) return false;
   w.order.resize(n);
   for (int i = 0; i < n; ++i) w.order[i] = i;
-  auto key = [&](int i) { return std::make_tuple(r[i], c[3 * i], c[3 * i + 1], c[3 * i + 2]); };
+  auto key = [&](int i) { return std::make_tuple(-r[i], c[3 * i], c[3 * i + 1], c[3 * i + 2]); };
   std::sort(w.order.begin(), w.order.end(), [&](int a, int b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
-  signed char* dup = filled(w.drop, n, static_cast<signed char>(0));
+  signed char* drop = filled(w.drop, n, static_cast<signed char>(0));
   bool any = false;
   for (int q = 1; q < n; ++q)
-    if (key(w.order[q]) == key(w.order[q - 1])) dup[w.order[q]] = any = 1;
+    if (key(w.order[q]) == key(w.order[q - 1])) drop[w.order[q]] = any = 1;
+  // containers: the largest distinct spheres (w.order is by decreasing radius), in that order
+  int used = 0;
+  for (int q = 0; q < n && used < kContainers; ++q) {
+    const int b = w.order[q];
+    if (drop[b]) continue;
+    ++used;
+    for (int a = 0; a < n; ++a)
+      if (a != b && !drop[a] && buried_by(c, r, a, b)) drop[a] = any = 1;
+  }
   if (!any) return false;
   w.unique_c.clear();
   w.unique_r.clear();
   for (int i = 0; i < n; ++i)
-    if (!dup[i]) {
+    if (!drop[i]) {
       w.unique_c.insert(w.unique_c.end(), c + 3 * i, c + 3 * i + 3);
       w.unique_r.push_back(r[i]);
     }
@@ -1045,7 +1068,7 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
 
 inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
   out.clear();
-  if (drop_duplicates(c, r, n, w)) {
+  if (drop_redundant(c, r, n, w)) {
     std::vector<double> uc, ur;  // own copies: the workspace's buffers are reused below
     uc.swap(w.unique_c);
     ur.swap(w.unique_r);
