@@ -57,12 +57,46 @@ class Spheres:
         )
 
 
-def _as_float_array(x, name):
+_REAL_KINDS = "fiu"  # numpy dtype kinds taken as real numbers (float, signed and unsigned int)
+
+
+def _refuse_kind(kind, name):
+    what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes", "M": "dates",
+            "m": "time deltas", "V": "records"}.get(kind, f"values of dtype kind {kind!r}")
+    raise ValueError(f"{name} must be numeric: real numbers, got {what}")
+
+
+def _object_to_float(a, name):
+    """An object array (Python ints beyond int64, Fractions, mixtures) as float64, or ValueError."""
+    for x in a.flat:
+        if isinstance(x, (bool, np.bool_, str, bytes, complex, np.complexfloating)):
+            _refuse_kind(np.asarray(x).dtype.kind, name)
     try:
-        a = np.asarray(x, dtype=np.float64)
+        return a.astype(np.float64)
+    except OverflowError:
+        raise ValueError(f"{name} holds a number too large for float64 (|x| > ~1.8e308)") from None
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be numeric array-like: {exc}") from None
-    return a
+
+
+def _as_float_array(x, name):
+    """x as a float64 array; booleans, complex numbers, strings and numbers beyond float64 raise ValueError."""
+    if isinstance(x, np.ndarray) and x.dtype == np.float64:
+        return x
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"{name} must be numeric array-like: {exc}") from None
+    if a.dtype.kind == "O":
+        return _object_to_float(a, name)
+    if a.dtype.kind not in _REAL_KINDS:
+        _refuse_kind(a.dtype.kind, name)
+    return a.astype(np.float64, copy=False)
+
+
+def real_pieces(pieces) -> bool:
+    """True if every array of a ragged batch is of a real numeric dtype (else _as_float_array explains)."""
+    return all(isinstance(x, np.ndarray) and x.dtype.kind in _REAL_KINDS for x in pieces)
 
 
 def _check_finite_positive(radii, name="radii"):
@@ -74,8 +108,12 @@ def _check_finite_positive(radii, name="radii"):
 
 
 def check_density(density) -> float:
+    if isinstance(density, (bool, np.bool_, str, bytes, complex, np.complexfloating)):
+        raise ValueError(f"density must be a positive real number (kg/m^3), got {density!r}")
     try:
         rho = float(density)
+    except OverflowError:
+        raise ValueError(f"density is too large for float64 (> ~1.8e308 kg/m^3), got {density!r}") from None
     except (TypeError, ValueError):
         raise ValueError(f"density must be a positive number (kg/m^3), got {density!r}") from None
     if not np.isfinite(rho) or rho <= 0:

@@ -51,8 +51,22 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
         ``"pairwise"`` / ``Pairwise()``: the paper's eqs. (1)-(7); raises
         ClumpGeometryError where three spheres share a region.
         ``"sum"`` / ``Sum()``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
-        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``.
-        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme.
+        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``;
+        at most 10^9 samples.
+        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme; discretization
+        at most 1000 and at most 10^9 cells per clump.
+
+    Spheres that do not change the union: ``exact`` drops exact duplicates (in clumps of more
+    than 64 spheres, before the pair search) and spheres contained in another; ``pairwise``
+    takes the spheres as given (a contained pair removes the smaller sphere, eq. 1-7's lens
+    rule; a duplicate pair cut by a third sphere is a triple overlap and refused); ``sum``
+    drops nothing (it reproduces the engines' sums, duplicates counted each time).
+
+    ``exact``, ``pairwise`` and ``sum`` are scale-free: each clump is computed in units of a
+    power of two near its largest radius and scaled back exactly, so the answer is exact
+    wherever mass (~ density r^3) and inertia (~ density r^5) are normal float64 numbers;
+    beyond that range a ValueError says "too large" or "too small".  Complex numbers,
+    booleans, strings and numbers beyond float64 are refused with a ValueError.
 
     Returns
     -------
@@ -87,14 +101,16 @@ def _flatten(centers, radii):
         if len(radii) != M:
             return None
         if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
-            try:
-                c = np.asarray(centers[0], dtype=_F64)
-                r = np.asarray(radii[0], dtype=_F64)
-            except (TypeError, ValueError):
+            c, r = _real(centers[0]), _real(radii[0])
+            if c is None or r is None:
                 return None
             if c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
                 return None
             return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
+        if not (_input.real_pieces(centers) and _input.real_pieces(radii)):
+            centers, radii = [_real(x) for x in centers], [_real(x) for x in radii]
+            if any(x is None for x in centers) or any(x is None for x in radii):
+                return None  # booleans, complex numbers, strings: normalize explains
         try:
             nc = np.fromiter(map(len, centers), np.int64, M)
             nr = np.fromiter(map(len, radii), np.int64, M)
@@ -108,10 +124,8 @@ def _flatten(centers, radii):
         np.cumsum(nc, out=starts[1:])
         N = int(nc[0]) if np.all(nc == nc[0]) else 0
         return np.ascontiguousarray(c), r, (None if N else starts), N, M, True
-    try:
-        c = np.asarray(centers, dtype=_F64)
-        r = np.asarray(radii, dtype=_F64)
-    except (TypeError, ValueError):
+    c, r = _real(centers), _real(radii)
+    if c is None or r is None:
         return None
     if c.ndim == 2 and c.shape[1] == 3 and r.shape == (c.shape[0],) and c.shape[0] > 0:
         return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, False
@@ -121,12 +135,21 @@ def _flatten(centers, radii):
     return None
 
 
+def _real(x):
+    """x as a float64 array, or None where it is not an array of real numbers (normalize explains)."""
+    try:
+        return _input._as_float_array(x, "")
+    except ValueError:
+        return None
+
+
 def _compiled(centers, radii, rho, name):
     flat = _flatten(centers, radii)
     if flat is None:
         _input.normalize(centers, radii)  # raises ValueError naming the problem
         raise ValueError("centers and radii do not form clumps of spheres")  # pragma: no cover
     c, r, starts, N, M, batched = flat
+    c, r, exponent = _unit_scale(c, r, starts, N, M)
     mass, vol = np.empty(M), np.empty(M)
     com, inertia = np.empty((M, 3)), np.empty((M, 3, 3))
     w, axes = np.empty((M, 3)), np.empty((M, 3, 3))
@@ -136,11 +159,64 @@ def _compiled(centers, radii, rho, name):
                            mass, vol, com, inertia, w, axes)
         if status[0]:
             _core_error(status, centers, radii, batched, name)
+    if exponent is not None:
+        mass, vol, com, inertia, w = _scale_back(exponent, mass, vol, com, inertia, w)
+    _check_representable(mass, w, batched)
     for a in (mass, vol, com, inertia, w, axes):
         a.flags.writeable = False
     if not batched:
         return MassProperties._make(float(mass[0]), float(vol[0]), com[0], inertia[0], w[0], axes[0], name, rho)
     return MassProperties._make(mass, vol, com, inertia, w, axes, name, rho)
+
+
+_SCALE_FREE = 2.0**-20, 2.0**20  # clumps with every radius in this band are computed as given
+
+
+def _unit_scale(c, r, starts, N, M):
+    """Each clump divided by a power of two 2^e near its largest radius (exact: only exponents change).
+
+    Returns (centres, radii, e per clump), or the input and None when every radius lies in
+    _SCALE_FREE (no clump needs it).  The core then works with radii near 1, so no power of a
+    length (up to r^5 and the lens formulas' l^8) under- or overflows on the way, and the
+    results scale back exactly: lengths by 2^e, volume and mass by 2^3e, inertia by 2^5e.
+    """
+    if not len(r) or (_SCALE_FREE[0] <= r.min() and r.max() <= _SCALE_FREE[1]):
+        return c, r, None
+    with np.errstate(invalid="ignore"):
+        rmax = r.reshape(M, N).max(axis=1) if starts is None else np.maximum.reduceat(r, starts[:-1])
+    exponent = np.frexp(np.where(np.isfinite(rmax) & (rmax > 0), rmax, 1.0))[1]
+    per_sphere = np.repeat(exponent, N) if starts is None else np.repeat(exponent, np.diff(starts))
+    c_unit = np.ldexp(c, -per_sphere[:, None])
+    if np.any(np.isinf(c_unit) & np.isfinite(c)):
+        raise ValueError("a clump's centres are too large relative to its radii (|centre| / radius beyond "
+                         "~1e308): positions cannot resolve spheres that small there")
+    return np.ascontiguousarray(c_unit), np.ldexp(r, -per_sphere), exponent
+
+
+def _scale_back(exponent, mass, vol, com, inertia, w):
+    e = exponent
+    with np.errstate(over="ignore", under="ignore"):
+        return (np.ldexp(mass, 3 * e), np.ldexp(vol, 3 * e), np.ldexp(com, e[:, None]),
+                np.ldexp(inertia, 5 * e[:, None, None]), np.ldexp(w, 5 * e[:, None]))
+
+
+_TINY = np.finfo(np.float64).tiny  # the smallest normal float64; below it values lose digits
+
+
+def _check_representable(mass, w, batched):
+    """ValueError, naming the direction, where a mass or an inertia is beyond float64's normal range."""
+    largest = w[:, 2]  # ascending principal moments: the largest
+    if _TINY <= mass.min() and mass.max() < np.inf and _TINY <= largest.min() and w.max() < np.inf:
+        return  # (NaN fails every comparison and takes the slow path)
+    big = ~np.isfinite(mass) | ~np.all(np.isfinite(w), axis=1)
+    small = (np.abs(mass) < _TINY) | (np.max(np.abs(w), axis=1) < _TINY)
+    for bad, word, why in ((big, "too large", "overflows float64 (above ~1.8e308)"),
+                           (small, "too small", "underflows float64 (below ~2.2e-308, where digits are lost)")):
+        if np.any(bad):
+            m = int(np.flatnonzero(bad)[0])
+            where = f" of clump {m}" if batched else ""
+            raise ValueError(f"input {word}: the mass or inertia{where} {why}; mass scales as density * r^3 "
+                             "and inertia as density * r^5; express the input in other units")
 
 
 def _core_error(status, centers, radii, batched, name):
@@ -156,8 +232,8 @@ def _core_error(status, centers, radii, batched, name):
         )
     if code == _core.OVERFLOW:
         raise ValueError(
-            "the clump's moments overflow float64 (input too large: radius^5 * density must stay "
-            f"below ~1e308 in SI units){where}; rescale the input"
+            "the clump's moments overflow float64 (input too large: density * radius^5 must stay "
+            f"below ~1e308 in SI units){where}; express the input in other units"
         )
     if code == _core.NONPOSITIVE_VOLUME:
         raise ArithmeticError(f"internal error in method {name!r}: non-positive volume{where}")

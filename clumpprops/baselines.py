@@ -23,6 +23,7 @@ import numpy as np
 
 from ._input import Spheres
 from ._properties import StandardError, finish
+from .methods import MAX_DISCRETIZATION, MAX_SAMPLES, MAX_VOXEL_CELLS, check_count
 from .pairwise import sphere_moments
 
 
@@ -45,9 +46,7 @@ def _inside(x, c, r):
 
 def montecarlo_moments(sph: Spheres, density, n_samples=1_000_000, seed=None, chunk=None):
     """Monte Carlo mass properties with standard errors; returns a MassProperties."""
-    n_samples = int(n_samples)
-    if n_samples < 100:
-        raise ValueError(f"n_samples must be >= 100, got {n_samples}")
+    n_samples = check_count(n_samples, "n_samples", 100, MAX_SAMPLES)
     c, r = _padded(sph)
     M, Nmax = r.shape
     lo = np.min(np.where(r[..., None] > 0, c - r[..., None], np.inf), axis=1)
@@ -117,12 +116,7 @@ def montecarlo_moments(sph: Spheres, density, n_samples=1_000_000, seed=None, ch
 
 def voxel_moments(sph: Spheres, discretization=10):
     """V, S, Q of YADE 2023.02a's regular-grid scheme (see module docstring)."""
-    try:
-        d = int(discretization)
-    except (TypeError, ValueError):
-        raise ValueError(f"discretization must be a positive integer, got {discretization!r}") from None
-    if d < 1 or d != discretization:
-        raise ValueError(f"discretization must be a positive integer, got {discretization!r}")
+    d = check_count(discretization, "discretization", 1, MAX_DISCRETIZATION)
     V, S, Q = sphere_moments(sph)  # YADE's path for clumps without a real overlap
     c, r = _padded(sph)
     M, Nmax = r.shape
@@ -140,6 +134,10 @@ def voxel_moments(sph: Spheres, discretization=10):
     hi = np.max(np.where(real_s[..., None], cm + rm[..., None], -np.inf), axis=1)
     dx = (hi - lo).min(axis=1) / d  # (Mi,)
     # cell centres lo + dx/2 + k dx < hi, k = 0, 1, ...
+    cells = np.prod(np.ceil((hi - lo) / dx[:, None]), axis=1)
+    if np.max(cells) > MAX_VOXEL_CELLS:
+        raise ValueError(f"the voxel grid is too large: {np.max(cells):.3g} cells for one clump, at most "
+                         f"{MAX_VOXEL_CELLS:.0e} (a stated limit; lower discretization)")
     kmax = int(np.max(np.ceil((hi - lo) / dx[:, None]))) + 1
     k = np.arange(kmax)
     ax = lo[:, :, None] + dx[:, None, None] * (0.5 + k)  # (Mi, 3, kmax)
@@ -156,16 +154,19 @@ def voxel_moments(sph: Spheres, discretization=10):
         yz_ok = (ok[g, 1, :, None] & ok[g, 2, None, :]).reshape(len(Y), -1)
         yz = np.stack([Y.reshape(len(Y), -1), Z.reshape(len(Y), -1)], axis=-1)  # (Mc, kmax^2, 2)
         cc, rr = cm[g], rm[g]
+        block = max(1, 4_000_000 // (len(Y) * Nmax))  # (y, z) cells per step: memory bounded
         for i in range(kmax):
             xi = ax[g, 0, i]
-            pts = np.concatenate([np.broadcast_to(xi[:, None, None], yz.shape[:2] + (1,)), yz], axis=-1)
-            d2 = np.sum((pts[:, :, None, :] - cc[:, None, :, :]) ** 2, axis=-1)
-            ins = np.any(d2 < (rr * rr)[:, None, :], axis=-1) & yz_ok & ok[g, 0, i][:, None]
-            w = ins.astype(float)
-            n_in[g] += w.sum(axis=1)
-            pw = pts * w[..., None]
-            s1[g] += pw.sum(axis=1)
-            s2[g] += np.einsum("mpx,mpy->mxy", pw, pts)
+            for q in range(0, yz.shape[1], block):
+                yzq = yz[:, q : q + block]
+                pts = np.concatenate([np.broadcast_to(xi[:, None, None], yzq.shape[:2] + (1,)), yzq], axis=-1)
+                d2 = np.sum((pts[:, :, None, :] - cc[:, None, :, :]) ** 2, axis=-1)
+                ins = np.any(d2 < (rr * rr)[:, None, :], axis=-1) & yz_ok[:, q : q + block] & ok[g, 0, i][:, None]
+                w = ins.astype(float)
+                n_in[g] += w.sum(axis=1)
+                pw = pts * w[..., None]
+                s1[g] += pw.sum(axis=1)
+                s2[g] += np.einsum("mpx,mpy->mxy", pw, pts)
     cell = dx**3
     V[idx] = n_in * cell
     S[idx] = cell[:, None] * s1

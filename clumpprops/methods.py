@@ -9,8 +9,30 @@ their options and are checked when they are made::
 """
 from __future__ import annotations
 
+import numbers
 from dataclasses import asdict, dataclass
 from typing import Optional
+
+# stated limits of the baselines, beyond which they refuse (ValueError) rather than run for
+# hours or exhaust memory: Monte Carlo samples per clump, and the voxel grid (its edge count
+# along the smallest extent, and its cells per clump)
+MAX_SAMPLES = 10**9
+MAX_DISCRETIZATION = 1000
+MAX_VOXEL_CELLS = 10**9
+
+
+def check_count(value, name, lo, hi) -> int:
+    """value as an int in [lo, hi], or ValueError naming the problem (booleans, strings and
+    non-integral numbers included)."""
+    ok_type = isinstance(value, numbers.Integral) or (isinstance(value, numbers.Real) and float(value).is_integer())
+    if isinstance(value, bool) or not ok_type:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
+    v = int(value)
+    if v < lo:
+        raise ValueError(f"{name} must be >= {lo}, got {value!r}")
+    if v > hi:
+        raise ValueError(f"{name} is too large: at most {hi:g} (a stated limit of time and memory), got {value!r}")
+    return v
 
 
 @dataclass(frozen=True)
@@ -45,15 +67,16 @@ class Sum:
 
 @dataclass(frozen=True)
 class MonteCarlo:
-    """Uniform samples in each clump's bounding box; sets ``standard_error``."""
+    """Uniform samples in each clump's bounding box; sets ``standard_error``.
+
+    ``n_samples`` per clump, 100 to ``MAX_SAMPLES`` (10^9)."""
 
     n_samples: int = 1_000_000
     seed: Optional[int] = None
     name = "montecarlo"
 
     def __post_init__(self):
-        if isinstance(self.n_samples, bool) or int(self.n_samples) != self.n_samples or self.n_samples < 100:
-            raise ValueError(f"n_samples must be an integer >= 100, got {self.n_samples!r}")
+        check_count(self.n_samples, "n_samples", 100, MAX_SAMPLES)
 
     def options(self) -> dict:
         return asdict(self)
@@ -61,15 +84,16 @@ class MonteCarlo:
 
 @dataclass(frozen=True)
 class Voxel:
-    """YADE 2023.02a's regular-grid scheme (``O.bodies.clump(ids, discretization)``)."""
+    """YADE 2023.02a's regular-grid scheme (``O.bodies.clump(ids, discretization)``).
+
+    ``discretization`` 1 to ``MAX_DISCRETIZATION`` (1000) cells along the smallest extent;
+    a grid beyond ``MAX_VOXEL_CELLS`` (10^9) cells per clump is refused too."""
 
     discretization: int = 10
     name = "voxel"
 
     def __post_init__(self):
-        d = self.discretization
-        if isinstance(d, bool) or int(d) != d or d < 1:
-            raise ValueError(f"discretization must be an integer >= 1, got {d!r}")
+        check_count(self.discretization, "discretization", 1, MAX_DISCRETIZATION)
 
     def options(self) -> dict:
         return asdict(self)

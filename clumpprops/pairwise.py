@@ -111,12 +111,14 @@ def lens_moments(ra, rb, ca, cb, D, e):
 def check_no_triple_overlap(sph: Spheres, a, b, D, e):
     """Raise ClumpGeometryError if any three spheres of a clump share an interior point.
 
-    For every triangle (i, j, k) of mutually overlapping spheres, the distance from
-    c_i to the overlap region L_jk (a convex lens, or the smaller ball if one contains
-    the other) is computed exactly from its three candidate closest points (projection
-    onto either ball if it lies in the other one, or the nearest point of the rim
-    circle); the triple overlap has volume iff that distance is < r_i.  Three spheres
-    overlapping pairwise around a hole pass.
+    For every triangle (i, j, k) of mutually overlapping spheres and each of its three
+    balls, say i, the distance from c_i to the overlap region L_jk (a convex lens, or the
+    smaller ball if one contains the other) is computed from its candidate closest points
+    (projection onto either ball if it lies in the other one, or the nearest point of the
+    rim circle; the smaller ball itself for a contained pair); the triple overlap has
+    volume iff that distance is < r_i.  Asking all three balls makes the decision
+    independent of the order of the spheres.  Three spheres overlapping pairwise around a
+    hole pass.
     """
     if len(a) < 3 or sph.counts.max() < 3:
         return
@@ -153,9 +155,7 @@ def check_no_triple_overlap(sph: Spheres, a, b, D, e):
     if not np.any(tri):
         return
     ii, jj, kk = ii[tri], jj[tri], kk[tri]
-    pj = order[pos[tri]]  # index of pair (j, k)
-    dist = _distance_to_overlap(sph, sph.centers[ii], jj, kk, D[pj], e[pj])
-    bad = dist < sph.radii[ii]
+    bad = _shares_region(sph, ii, jj, kk)
     if np.any(bad):
         t = np.flatnonzero(bad)[0]
         m = int(sph.clump[ii[t]]) + sph.first_clump
@@ -166,6 +166,20 @@ def check_no_triple_overlap(sph: Spheres, a, b, D, e):
             f"spheres {tuple(idx)}{where} share a common region (a triple overlap; {n_bad} such triple(s) in all): "
             "the pairwise method (paper eqs. 1-7) would be wrong there; use method='exact'"
         )
+
+
+def _shares_region(sph: Spheres, i, j, k):
+    """(T,) bool: balls i, j, k share a region of positive volume.
+
+    Asks all three balls whether they reach the overlap region of the other two (each test
+    is exact in exact arithmetic), so the answer does not depend on the order in which the
+    spheres are listed, and a round-off miss seen from one ball cannot decide alone.
+    """
+    bad = np.zeros(len(i), dtype=bool)
+    for p, a, b in ((i, j, k), (j, i, k), (k, i, j)):
+        D, e = distance_and_axis(sph.centers[b] - sph.centers[a])
+        bad |= _distance_to_overlap(sph, sph.centers[p], a, b, D, e) < sph.radii[p]
+    return bad
 
 
 def _distance_to_overlap(sph: Spheres, p, j, k, D, e):

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -39,6 +40,10 @@ constexpr double kCoincidentCaps = 1e-13;
 // than that are not ordered reliably after rounding)
 constexpr double kNearTouchingSin2 = 1e-4;
 constexpr double kTouchingChord = 1e-14;
+// event lists up to this length are insertion-sorted, longer ones with std::sort
+constexpr int kSmallSort = 32;
+// clumps above this many spheres are checked for duplicate and contained spheres before the pair search
+constexpr int kDedupAbove = 64;
 // safety net inside Arrangement (coincident circles are merged before it): |R|, |m| below this
 constexpr double kCoincident = 1e-14;
 
@@ -766,9 +771,13 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
       Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
       dG = 0.0;
     } else {
-      small_sort(E, P, [](const Event& x, const Event& y) {
-        return x.key < y.key || (x.key == y.key && x.type > y.type);
-      });
+      auto by_key = [](const Event& x, const Event& y) { return x.key < y.key || (x.key == y.key && x.type > y.type); };
+      // insertion sort for the usual few events, O(P log P) for the many of dense clumps (where
+      // it was O(P^2) per circle, O(K^3) per sphere)
+      if (P <= kSmallSort)
+        small_sort(E, P, by_key);
+      else
+        std::sort(E, E + P, by_key);
       int depth = egl[k];
       for (int p = 0; p < P; ++p) {
         depth += E[p].type;
@@ -880,8 +889,58 @@ struct ExactWorkspace {
   std::vector<int> start, count;
   std::vector<signed char> drop, copy, coinc;
   std::vector<double> alpha;
+  std::vector<int> order;
+  std::vector<double> unique_c, unique_r;
   Arrangement arr;
 };
+
+// whether sphere a lies in sphere b by exact_caps' scale-aware rule (and, where each lies in the
+// other, a is the one exact_caps buries: the later in the order larger radius first, then lower index)
+inline bool buried_by(const double* c, const double* r, int a, int b) {
+  const double dx = c[3 * b] - c[3 * a], dy = c[3 * b + 1] - c[3 * a + 1], dz = c[3 * b + 2] - c[3 * a + 2];
+  const double D = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double tol = kTauNested * std::min(r[a], r[b]);
+  if (!((r[a] - r[b]) + D <= tol)) return false;
+  const bool b_in_a = (r[b] - r[a]) + D <= tol;
+  return !b_in_a || r[b] > r[a] || (r[b] == r[a] && b < a);
+}
+
+// For clumps of more than kDedupAbove spheres, the spheres that cannot change the union are
+// dropped before the pair search: exact duplicates (same centre and radius, bit for bit; the first
+// of each group stays) and spheres that exact_caps would bury inside one of the kContainers
+// largest spheres.  The rest go to w.unique_c, w.unique_r in input order; returns false if none
+// is dropped.  O(n log n); n identical or nested spheres then cost O(n) memory instead of the n^2/2
+// pairs of the search, and the exact method's answer is unchanged (the union is).
+constexpr int kContainers = 8;
+inline bool drop_redundant(const double* c, const double* r, int n, ExactWorkspace& w) {
+  if (n <= kDedupAbove) return false;
+  w.order.resize(n);
+  for (int i = 0; i < n; ++i) w.order[i] = i;
+  auto key = [&](int i) { return std::make_tuple(-r[i], c[3 * i], c[3 * i + 1], c[3 * i + 2]); };
+  std::sort(w.order.begin(), w.order.end(), [&](int a, int b) { return key(a) < key(b) || (key(a) == key(b) && a < b); });
+  signed char* drop = filled(w.drop, n, static_cast<signed char>(0));
+  bool any = false;
+  for (int q = 1; q < n; ++q)
+    if (key(w.order[q]) == key(w.order[q - 1])) drop[w.order[q]] = any = 1;
+  // containers: the largest distinct spheres (w.order is by decreasing radius), in that order
+  int used = 0;
+  for (int q = 0; q < n && used < kContainers; ++q) {
+    const int b = w.order[q];
+    if (drop[b]) continue;
+    ++used;
+    for (int a = 0; a < n; ++a)
+      if (a != b && !drop[a] && buried_by(c, r, a, b)) drop[a] = any = 1;
+  }
+  if (!any) return false;
+  w.unique_c.clear();
+  w.unique_r.clear();
+  for (int i = 0; i < n; ++i)
+    if (!drop[i]) {
+      w.unique_c.insert(w.unique_c.end(), c + 3 * i, c + 3 * i + 3);
+      w.unique_r.push_back(r[i]);
+    }
+  return true;
+}
 
 // Caps of every sphere (sorted by owner, then other) and the buried spheres.
 inline void exact_caps(const double* c, const double* r, int n, ExactWorkspace& w) {
@@ -1009,6 +1068,15 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
 
 inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
   out.clear();
+  if (drop_redundant(c, r, n, w)) {
+    std::vector<double> uc, ur;  // own copies: the workspace's buffers are reused below
+    uc.swap(w.unique_c);
+    ur.swap(w.unique_r);
+    exact_moments(uc.data(), ur.data(), static_cast<int>(ur.size()), out, w);
+    uc.swap(w.unique_c);
+    ur.swap(w.unique_r);
+    return;
+  }
   exact_caps(c, r, n, w);
   SurfaceMoments s;
   for (int i = 0; i < n; ++i) {
@@ -1108,6 +1176,32 @@ inline double distance_to_overlap(const double* p, const double* cj, double rj, 
   return d;
 }
 
+// Whether balls i, j, k share a region of positive volume, decided the same way for every order
+// in which the three are listed: the three are put in a canonical order (radius, then centre),
+// and the triple counts if any of them reaches the overlap region of the other two (each of the
+// three tests is exact in exact arithmetic; asking all three keeps a round-off miss in one of
+// them from deciding alone).
+inline bool triple_overlap(const double* c, const double* r, int i, int j, int k) {
+  int s[3] = {i, j, k};
+  auto before = [&](int a, int b) {
+    if (r[a] != r[b]) return r[a] < r[b];
+    for (int x = 0; x < 3; ++x)
+      if (c[3 * a + x] != c[3 * b + x]) return c[3 * a + x] < c[3 * b + x];
+    return false;
+  };
+  small_sort(s, 3, before);
+  for (int t = 0; t < 3; ++t) {
+    const int p = s[t], a = s[t == 0 ? 1 : 0], b = s[t == 2 ? 1 : 2];
+    const double dv[3] = {c[3 * b] - c[3 * a], c[3 * b + 1] - c[3 * a + 1], c[3 * b + 2] - c[3 * a + 2]};
+    const double D = std::sqrt(dot3(dv, dv));
+    double e[3] = {0.0, 0.0, 1.0};
+    if (D > 0.0)
+      for (int x = 0; x < 3; ++x) e[x] = dv[x] / D;
+    if (distance_to_overlap(c + 3 * p, c + 3 * a, r[a], c + 3 * b, r[b], D, e) < r[p]) return true;
+  }
+  return false;
+}
+
 struct PairwiseWorkspace {
   PairSearch search;
   std::vector<Pair> pairs;
@@ -1146,12 +1240,10 @@ inline bool check_no_triple_overlap(const double* c, const double* r, int n, Pai
     for (int s = w.adj_start[j]; s < w.adj_start[j + 1]; ++s) {
       const int k = w.adj[s];
       if (k <= j) continue;
-      const Pair& jk = P[w.pair_of[s]];
       for (int u = w.adj_start[k]; u < w.adj_start[k + 1]; ++u) {
         const int i = w.adj[u];
         if (i >= j || w.mark[i] < 0) continue;
-        const double dist = distance_to_overlap(c + 3 * i, c + 3 * j, r[j], c + 3 * k, r[k], jk.D, jk.e);
-        if (dist < r[i]) {
+        if (triple_overlap(c, r, i, j, k)) {
           if (t.count == 0 || std::make_pair(i, std::make_pair(j, k)) < std::make_pair(t.i, std::make_pair(t.j, t.k))) {
             t.i = i;
             t.j = j;
