@@ -37,7 +37,7 @@ in_root() {
   local wd="${WORKDIR:-/repo}"
   # without root: a user namespace mapping the user to root, and a PID namespace so that /proc mounts
   local ns=(unshare -m --propagation private)
-  [ "$(id -u)" -eq 0 ] || ns=(unshare -r -m -p -f --propagation private)
+  [ "$(id -u)" -eq 0 ] || ns=(unshare -r -m -p -f --kill-child --propagation private)   # dies with its caller
   ${EXEC:-} "${ns[@]}" bash -s "$ROOT" "$REPO" "$wd" "$@" <<'EOS'
 set -e
 ROOT="$1"; REPO="$2"; WD="$3"; shift 3

@@ -104,8 +104,8 @@ def _fill_done(row, rec, rdir):
                yade_version=rec["yade_version"], rot_algorithm=rec["rot_algorithm"],
                energy_drift=f"{c['energy_drift']:.3g}", steps_per_s=f"{rec['facts']['steps_per_s']:.0f}",
                wall_s=f"{rec['wall_s']:.1f}", updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
-    if not row.get("attempts"):
-        row["attempts"] = 1
+    if not row.get("attempts") and not os.path.exists(runner.starts_path(rdir, rec["key"])):
+        row["attempts"] = 1       # a record from before attempts were counted (the driver counts the starts)
 
 
 def _fmt_s(s):
@@ -212,8 +212,10 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
                     rows[r["key"]]["attempts"] = int(rows[r["key"]]["attempts"] or 0) + runner.take_starts(rdir, r["key"])
                 runner.clean_scratch(runner.scratch_root_of({"scratch": scratch}))
                 first = False
-            todo = [r for r in runs if rows[r["key"]]["status"] in ("todo", "failed")
-                    and int(rows[r["key"]]["attempts"]) < max_att and r["key"] not in attempted]
+            # the cap is on failures: starts that were killed (a stopped driver, a lost worker) count
+            # as attempts but never leave a run undone
+            todo = [r for r in runs if r["key"] not in attempted and (rows[r["key"]]["status"] == "todo" or (
+                    rows[r["key"]]["status"] == "failed" and int(rows[r["key"]]["attempts"]) < max_att))]
             given_up = [r for r in runs if rows[r["key"]]["status"] == "failed"
                         and int(rows[r["key"]]["attempts"]) >= max_att]
             todo.sort(key=lambda r: -_priority(r, schedule))     # --max-runs keeps the first in the schedule

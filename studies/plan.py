@@ -71,7 +71,9 @@ def plan(spec, log=print):
     runs = {r["key"]: r for r in S.runs(spec, extra_seeds=design.possible_extra_seeds(spec))}
     own = design.load_records(spec, S.results_dir(spec))
     per = seconds_per_body_step(committed_records())
-    todo = [k for k, r in rows.items() if r["status"] not in ("done", "given_up")]
+    max_att = spec["study"]["max_attempts"]
+    todo = [k for k, r in rows.items() if r["status"] in ("todo", "running")
+            or (r["status"] == "failed" and int(r["attempts"] or 0) < max_att)]
     total, sources = 0.0, set()
     for k in todo:
         p = runs[k]["params"] if k in runs else S.resolve_run(spec, spec["groups"][rows[k]["group"]],

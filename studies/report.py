@@ -1017,7 +1017,7 @@ def readable_specs():
             sp = effects.results_specs(names=(name,))[0]
             planned([sp])
             effects.paired_values([sp])
-        except (ValueError, KeyError, OSError) as e:        # SpecError is a ValueError
+        except (ValueError, OSError) as e:        # SpecError is a ValueError
             failures.append((name, f"{type(e).__name__}: {e}".splitlines()[0]))
             continue
         specs.append(sp)
@@ -1076,7 +1076,8 @@ def build():
 def main(argv=()):
     """``python -m studies.report``: 0 on success; 1 with the reason on stderr, no traceback, when
     the results cannot be reported as they are (two effects rows a reader could not tell apart, a
-    record without a Green-Kubo D, a bad spec).  ``argv``: the command line's arguments (none are
+    record without a Green-Kubo D, a bad spec).  A headline study that cannot be read alone is left
+    out of the report, which says so in its own section; the status is then 1 too.  ``argv``: the command line's arguments (none are
     taken; ``--help`` prints what the command writes and writes nothing)."""
     import argparse
     argparse.ArgumentParser(prog="python -m studies.report", description="Write results/README.md, the study's answers, generated "
@@ -1089,6 +1090,10 @@ def main(argv=()):
         print(f"[report] error: {e}", file=sys.stderr)
         return 1
     sys.stdout.write(text)
+    if "\n## Studies not reported\n" in text:
+        print("[report] error: some studies of the programme could not be read: see 'Studies not reported' in "
+              "results/README.md", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -334,7 +334,7 @@ def _check_one_body(where, shape, centers, radii):
     if inside.any():
         i, j = np.argwhere(inside)[0]
         raise SpecError(f"{where}: sphere {i} is coincident with or inside sphere {j}; remove it")
-    touching = d < radii[:, None] + radii[None]
+    touching = d <= (radii[:, None] + radii[None]) * (1 + 1e-12)        # overlapping or touching
     reached, todo = {0}, [0]
     while todo:
         for j in np.flatnonzero(touching[todo.pop()]):
@@ -376,10 +376,12 @@ def _check_analysis_window(where, spec, g):
     _, _, run = group_tables(spec, g)
     a, t_end = spec["analysis"], float(run["t_end"])
     t_eq = a["t_eq"] if not isinstance(a["t_eq"], str) else 0.0
-    start = max([t_eq] + list(a["cuts"]))
-    if start >= t_end:
-        key = "analysis.t_eq" if t_eq >= max(a["cuts"] or [0.0]) else "analysis.cuts"
-        raise SpecError(f"{where}: {key} = {start:g} s is not before the end of the run (t_end = {t_end:g} s)")
+    start = max([t_eq] + list(a["cuts"]) + [float(s[0]) for s in a["sensitivity"]])
+    if start > t_end - 3 * float(run["rec_interval"]):          # a window of fewer than 4 frames is never stored
+        key = ("analysis.t_eq" if t_eq >= start else "analysis.cuts" if start in a["cuts"]
+               else "analysis.sensitivity")
+        raise SpecError(f"{where}: {key} = {start:g} s is too close to the end of the run (t_end = {t_end:g} s; "
+                        f"a window needs 4 recorded frames)")
     window = t_end - start
     for key in ("max_lag", "fit_hi"):
         if a[key] >= window:

@@ -44,3 +44,48 @@ def test_without_a_root_a_user_is_told_in_one_line_how_to_get_one():
     r = _as_nobody(f"CLUMPPROPS_DEBIAN13=/nonexistent bash {D13} run yade --version")
     assert r.returncode == 1 and r.stdout == ""
     assert len(r.stderr.strip().splitlines()) == 1 and "as root, once" in r.stderr
+
+
+def test_without_root_the_command_in_the_root_dies_with_its_caller():
+    """The user namespace's child (YADE in a sweep) must not outlive a killed caller: a driver's
+    stop would otherwise leave YADE running beside the next attempt of the same run."""
+    import signal
+    import time
+    p = subprocess.Popen(["su", "-s", "/bin/bash", "nobody", "-c",
+                          f"cd {ROOT} && exec bash {D13} run sleep 300"], start_new_session=True)
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and not _sleepers():
+            time.sleep(0.2)
+        assert _sleepers(), "the command never started"
+        unshare = [pid for pid in _pids() if _cmdline(pid).startswith("unshare") and "--kill-child" in _cmdline(pid)]
+        assert unshare
+        for pid in unshare:
+            os.kill(pid, signal.SIGKILL)            # the caller's side, as a killed driver's worker
+        deadline = time.time() + 10
+        while time.time() < deadline and _sleepers():
+            time.sleep(0.2)
+        assert not _sleepers()
+    finally:
+        try:
+            os.killpg(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        for pid in _sleepers():
+            os.kill(pid, signal.SIGKILL)
+
+
+def _pids():
+    return [int(d) for d in os.listdir("/proc") if d.isdigit()]
+
+
+def _cmdline(pid):
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return f.read().replace(b"\0", b" ").decode(errors="replace").strip()
+    except OSError:
+        return ""
+
+
+def _sleepers():
+    return [pid for pid in _pids() if _cmdline(pid) == "sleep 300"]

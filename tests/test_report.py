@@ -550,7 +550,8 @@ def test_a_broken_study_is_reported_in_its_own_section_and_the_others_still_are(
     bad = specs / "shapes.toml"
     bad.write_text(bad.read_text().replace("volume_fraction = 0.001", "volume_fraction = 0.7"))
     monkeypatch.setattr(S, "SPEC_DIR", str(specs))
-    text = report.build()
+    assert report.main() == 1                      # reported, and said on the status
+    text = (results_copy / "README.md").read_text()
     assert "## Studies not reported" in text
     assert "* `shapes`: SpecError:" in text and "cannot be placed" in text
     assert "## The answers so far" in text

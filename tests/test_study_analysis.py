@@ -685,6 +685,27 @@ def test_driver_queues_a_sequential_groups_new_seeds_before_later_groups(tmp_pat
     assert len(st) == 20 and all(r["status"] == "done" for r in st.values())
 
 
+def test_killed_starts_count_as_attempts_but_never_leave_a_run_undone(tmp_path, monkeypatch):
+    """attempts counts every start; the cap (max_attempts) applies to failures only: a run whose
+    record is gone after three starts that were killed runs again, and one start is one attempt."""
+    sp = spec_for(tmp_path, [{"shape": "dimer", "cases": ["exact"], "seeds": [1]}])
+    sp["study"]["max_attempts"] = 3
+    monkeypatch.setattr(runner, "execute", _fake_execute_logging_to(tmp_path / "order.txt"))
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None)
+    (key,) = rows
+    rdir = engine.results_dir(sp)
+    os.remove(runner.record_path(rdir, S.runs(sp)[0]))          # the record is lost ...
+    m = Path(rdir) / "manifest.csv"
+    m.write_text(m.read_text().replace(",done,1,", ",done,3,"))     # ... after three (killed) starts
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None)
+    assert rows[key]["status"] == "done" and int(rows[key]["attempts"]) == 4
+    # a start the driver has not counted yet, of a run whose record is there: one attempt, not two
+    m.write_text(m.read_text().replace(",done,4,", ",done,0,"))
+    runner._count_start(rdir, key)
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None)
+    assert int(rows[key]["attempts"]) == 1
+
+
 def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path, monkeypatch):
     """A re-plan after the budget is spent drops a sequential group's added seeds; those already
     submitted must still be collected and recorded (before: KeyError in the driver, which closed

@@ -55,3 +55,10 @@ def test_plan_of_a_bad_spec_exits_2_with_one_line(tmp_path):
                        cwd=S.ROOT)
     assert p.returncode == 2 and p.stdout == ""
     assert len(p.stderr.strip().splitlines()) == 1 and "cannot be placed" in p.stderr
+
+
+def test_plan_does_not_count_a_flagged_run_as_to_do():
+    """A flagged run is finished (its energy check failed; it is never rerun): sphere_gas has one."""
+    lines = []
+    P.plan(S.load(os.path.join(S.SPEC_DIR, "sphere_gas.toml")), log=lines.append)
+    assert " 0 to do" in lines[-1], lines[-1]

@@ -680,10 +680,10 @@ def test_a_file_clump_that_is_not_one_body_is_refused_by_name(tmp_path, lines, m
     (lambda r: r["shapes"]["dimer"].update(overlap=1.5), r"shapes.dimer: the spheres do not form one body.*overlap = D/d_s must be < 1"),
     (lambda r: r["shapes"]["dimer"].update(scale=2.0), "shapes.dimer.scale: not used by kind = 'dimer'"),
     (lambda r: r["gas"].update(volume_fraction=0.7), r"gas.volume_fraction = 0.7 cannot be placed.*use volume_fraction <= 0\.0"),
-    (lambda r: r["analysis"].update(t_eq=500.0), r"analysis.t_eq = 500 s is not before the end of the run \(t_end = 400 s\)"),
-    (lambda r: r["analysis"].update(cuts=[0.0, 450.0]), r"analysis.cuts = 450 s is not before the end"),
-    (lambda r: r["analysis"].update(max_lag=360.0), r"analysis.max_lag = 360 s does not fit the analysed window of 350 s"),
-    (lambda r: r["groups"][0].update(t_end=200.0), r"groups\[0\]: analysis.max_lag = 150 s does not fit the analysed window of 150 s"),
+    (lambda r: r["analysis"].update(t_eq=500.0), r"analysis.t_eq = 500 s is too close to the end of the run \(t_end = 400 s"),
+    (lambda r: r["analysis"].update(cuts=[0.0, 450.0]), r"analysis.cuts = 450 s is too close to the end"),
+    (lambda r: r["analysis"].update(max_lag=360.0), r"analysis.max_lag = 360 s does not fit the analysed window of 300 s"),
+    (lambda r: r["groups"][0].update(t_end=200.0), r"groups\[0\]: analysis.max_lag = 150 s does not fit the analysed window of 100 s"),
 ])
 def test_a_spec_that_cannot_run_or_be_analysed_is_refused_before_any_run(mutate, message):
     assert re.search(message, _bad(mutate)), _bad(mutate)
@@ -759,3 +759,11 @@ def test_a_spec_of_shape_material_gas_and_cases_only_gets_its_times_from_the_gas
     r["run"] = {"t_end": 150.0}                    # too short for the derived lags: said, not guessed
     with pytest.raises(S.SpecError, match="analysis.fit_hi = 200 s does not fit the analysed window of 150 s"):
         S.validate(r)
+
+
+def test_touching_spheres_are_one_body_and_a_sensitivity_window_must_fit_the_run():
+    r = raw()
+    r["shapes"]["dimer"]["overlap"] = 1.0                  # tangent spheres: one body, as YADE clumps them
+    assert S.validate(r)["shapes"]["dimer"]["overlap"] == 1.0
+    msg = _bad(lambda r: r["analysis"].update(sensitivity=[[399.9, 5.0, 9.0]]))
+    assert "analysis.sensitivity = 399.9 s is too close to the end of the run" in msg, msg
