@@ -381,12 +381,12 @@ def _priority(run, schedule="in_order"):
 
 def _cost_model(spec, rdir):
     """A function of a run's parameters giving its expected wall seconds: from the study's own like
-    runs, else the per-body-step cost model (:func:`studies.plan.estimate`; the records as they are
+    runs, else the per-body-step cost model (:func:`studies.cost.estimate`; the records as they are
     when the sweep starts); what the ETAs start from before a run has measured its pace."""
-    from . import design, plan
+    from . import cost, design
     own = design.load_records(spec, rdir)
-    per = plan.seconds_per_body_step(plan.committed_records())
-    return lambda params: plan.estimate(params, own, per)[0]
+    per = cost.seconds_per_body_step(cost.committed_records())
+    return lambda params: cost.estimate(params, own, per)[0]
 
 
 def remaining_s(expected_s, progress, now=None):

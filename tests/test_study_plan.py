@@ -6,22 +6,23 @@ import sys
 import numpy as np
 import pytest
 
+from studies import cost as C
 from studies import plan as P
 from studies import spec as S
 
 
 def test_the_cost_model_predicts_each_studys_runs_from_the_other_studies_records_within_a_factor_of_three():
     """Leave one study out: its runs' CPU time against the per-body-step cost of all other studies."""
-    recs = P.committed_records()
+    recs = C.committed_records()
     studies = sorted({os.path.basename(os.path.dirname(os.path.dirname(p))) for p in recs})
     assert len(studies) >= 5
     for study in studies:
         mine = {p: r for p, r in recs.items() if f"/{study}/runs/" in p}
         others = {p: r for p, r in recs.items() if p not in mine}
-        per = P.seconds_per_body_step(others)
+        per = C.seconds_per_body_step(others)
         ratios = []
         for r in mine.values():
-            bodies, steps = P._bodies_and_steps(r["params"])
+            bodies, steps = C.bodies_and_steps(r["params"])
             ratios.append(per * bodies * steps / float(r.get("cpu_s") or r["wall_s"]))
         assert 1 / 3 < np.median(ratios) < 3, (study, np.median(ratios))
 
