@@ -251,7 +251,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from .io.cli import main as export_main
 
         try:
-            return export_main(argv[1:])
+            status = export_main(argv[1:])
+            sys.stdout.flush()      # here, not at exit, so that a closed pipe is caught below
+            return status
         except BrokenPipeError:  # its listing piped into head
             sys.stdout = None
             return 0
