@@ -201,6 +201,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     n_ok = n_flag = n_fail = n_sub = n_cancel = 0
     attempted = set()
     expected = {}             # run key -> expected wall seconds (the cost model), for the ETAs
+    scratch_root = runner.scratch_root_of({"scratch": scratch})
     done_walls = []           # wall seconds of the runs this sweep finished
     first = True
     try:
@@ -210,7 +211,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             if first:         # attempts a killed driver's workers started and nobody counted
                 for r in runs:
                     rows[r["key"]]["attempts"] = int(rows[r["key"]]["attempts"] or 0) + runner.take_starts(rdir, r["key"])
-                runner.clean_scratch(runner.scratch_root_of({"scratch": scratch}))
+                runner.clean_scratch(scratch_root)
                 first = False
             # the cap is on failures: starts that were killed (a stopped driver, a lost worker) count
             # as attempts but never leave a run undone
@@ -351,7 +352,7 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
             client.close()
         if cluster is not None:
             cluster.close()
-        runner.clean_scratch(runner.scratch_root_of({"scratch": scratch}))     # a killed attempt's folders
+        runner.clean_scratch(scratch_root)     # a killed attempt's folders
         fcntl.flock(lock, fcntl.LOCK_UN)
         lock.close()
     return rows
