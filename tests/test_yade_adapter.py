@@ -16,6 +16,8 @@ from yade.wrapper import (
     NewtonIntegrator,
 )
 
+cy.install_guards()  # these tests check YADE's O.bodies methods as the guards route them
+
 
 @pytest.fixture
 def scene():
