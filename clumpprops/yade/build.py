@@ -238,6 +238,10 @@ def _build_one(Y, checked, row):
     return cid, mids[: len(spheres)], corr.id, (c.mass, cx, cy, cz, w[0], w[1], w[2], q[0], q[1], q[2], q[3])
 
 
+def _input_label(k):
+    return f"clump {k} of the input"
+
+
 def _append_clumps(clumps, method):
     Y = _Y.load()
     seen = set()
@@ -245,7 +249,7 @@ def _append_clumps(clumps, method):
     if not checked:
         return []
     rows = _checked_corrections([c[1] for c in checked], [c[2] for c in checked], [c[3] for c in checked], method,
-                                lambda k: f"clump {k} of the input")
+                                _input_label)
     # ---- from here on the scene is modified; python floats and YADE objects only
     out, states, corr_ids = [], [], []
     for c, row in zip(checked, rows):
@@ -271,9 +275,18 @@ def append_clump(spheres, method=DEFAULT_METHOD):
     The clump's ``state.mass``, ``state.pos`` and inertia (``state.inertia``, ``state.ori``)
     are the library's values for the union of the spheres (``method``, default exact).
     ``member_ids`` lists the spheres; the clump also holds one collision-free correction
-    member (see the package docstring).
+    member (see the package docstring).  The steps of :func:`append_clumps` for one clump, without
+    the bookkeeping of a batch (this is the call a script makes once per clump).
     """
-    return _append_clumps([spheres], method)[0]
+    Y = _Y.load()
+    checked = _check_new_spheres(Y, 0, spheres, set())
+    (row,) = _checked_corrections([checked[1]], [checked[2]], [checked[3]], method, _input_label)
+    cid, mids, corr_id, state = _build_one(Y, checked, row)
+    reg = _registry()
+    reg[cid] = (corr_id, _fp(mids, checked[2], checked[3]), method)
+    _save_registry(reg)
+    _verify((cid,), (state,), (row,))
+    return cid, mids
 
 
 def _plan_entry(cid, what="clump"):

@@ -65,7 +65,7 @@ def guards_installed() -> bool:
 
 @contextlib.contextmanager
 def unguarded():
-    """YADE's own ``O.bodies`` methods inside the block, as if the adapter were not loaded (tests, debugging)."""
+    """YADE's own ``O.bodies`` methods inside the block, as if the guards were not installed (tests, debugging)."""
     _bypass[0] += 1
     try:
         yield
