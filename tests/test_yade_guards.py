@@ -120,7 +120,8 @@ def patched():
     return [n for n in _GUARDED if isinstance(getattr(BC, n), types.FunctionType)]
 cy.correct_clump(cid)
 O.bodies.erase(cy.append_clump([utils.sphere((5, 0, 0), 0.05, material="m")])[0])
-print("before:", patched(), cy.guards_installed(), cy.check().ok)
+ok = cy.check().ok
+print("before:", patched(), cy.guards_installed(), ok)
 print("install:", cy.install_guards(), cy.install_guards())
 print("after:", len(patched()) == len(_GUARDED), cy.guards_installed())
 """
