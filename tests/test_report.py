@@ -601,3 +601,19 @@ def test_a_broken_study_is_reported_in_its_own_section_and_the_others_still_are(
     shapes = set(pd.read_csv(results_copy / "effects.csv")["shape"])
     assert "tetrahedron" not in shapes and "dimer" in shapes          # only the broken study's rows are gone
     assert "shapes" in effects.HEADLINE
+
+
+def test_gas_report_states_the_values_of_its_tables():
+    """`python -m studies.gas_report`: every paired difference and every ratio of the study's CSV
+    tables, in its row, and a protocol without a difference (exact) shows dashes."""
+    from studies import gas_report
+    out = S.ROOT + "/results/granular_gas"
+    text = gas_report.report(out)
+    rows = {ln.split(" | ")[0][2:] + "/" + ln.split(" | ")[1]: ln for ln in text.splitlines() if ln.count(" | ") == 8}
+    for r in pd.read_csv(out + "/diff_D.csv").itertuples():
+        assert (f"| {r.d_minus_d_exact:+.3f} | [{r.ci_low:+.3f}, {r.ci_high:+.3f}] | {100 * r.relative:+.2f} % "
+                f"[{100 * r.relative_ci_low:+.2f}, {100 * r.relative_ci_high:+.2f}] |") in rows[f"{r.case}/{r.protocol}"]
+    assert "| – | – | – |" in rows["exact/paired"]
+    for r in pd.read_csv(out + "/ratio_D.csv").itertuples():
+        assert f"| {r.case} | {r.n_seeds} | {r.ratio:+.3f} | [{r.ci_low:+.3f}, {r.ci_high:+.3f}] |" in text
+    assert not text.endswith("\n")
