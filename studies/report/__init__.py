@@ -19,29 +19,34 @@ import sys
 
 from .. import effects, effects_plots, rates, sphere_gas
 from .. import spec as S
-from . import answers, tables, words
-from .render import interval, pct, render, verdict
+from . import answers, tables
 from .render import apart as _apart
-from .render import cpu_hours as _cpu_hours
+from .render import interval, pct, render, verdict
 from .render import lines as _lines
-from .sections import (LATE_VARIANT, RECORD_VARIANT, collision_map_section, effects_section,  # noqa: F401
+from .sections import (LATE_VARIANT, RECORD_VARIANT, collision_map_section, effects_section,
                        hard_sphere_md_section, programme_section, rate_ratio_section, rates_section,
                        sphere_gas_section)
 from .sections import fig2_section as _fig2_section
-from .tables import Planned, paper_share, planned, readable_specs, same_spin_pairs  # noqa: F401
-from .tables import status_rows as _status_rows  # noqa: F401
-from .words import answer as _answer  # noqa: F401
-from .words import cpu_hours_more as _cpu_hours_more  # noqa: F401
-from .words import map_check as _map_check  # noqa: F401
-from .words import mass_scaling as _mass_scaling  # noqa: F401
-from .words import other_shapes_words as _other_shapes_words  # noqa: F401
-from .words import paper_share_answers  # noqa: F401
-from .words import prior_words as _prior_words  # noqa: F401
-from .words import same_spin_answers as _same_spin_answers  # noqa: F401
-from .words import stiffness_words as _stiffness_words  # noqa: F401
+from .tables import Planned, paper_share, planned, readable_specs, same_spin_pairs
+from .words import paper_share_answers
 
-__all__ = ["RESULTS", "build", "main", "planned", "readable_specs", "paper_share", "paper_share_answers",
-           "same_spin_pairs", "pct", "interval", "verdict"]
+# one sentence at a time, under the names the report's tests call them by
+from .render import cpu_hours as _cpu_hours  # noqa: E402,F401
+from .tables import status_rows as _status_rows  # noqa: E402,F401
+from .words import answer as _answer  # noqa: E402,F401
+from .words import cpu_hours_more as _cpu_hours_more  # noqa: E402,F401
+from .words import map_check as _map_check  # noqa: E402,F401
+from .words import mass_scaling as _mass_scaling  # noqa: E402,F401
+from .words import other_shapes_words as _other_shapes_words  # noqa: E402,F401
+from .words import prior_words as _prior_words  # noqa: E402,F401
+from .words import same_spin_answers as _same_spin_answers  # noqa: E402,F401
+from .words import stiffness_words as _stiffness_words  # noqa: E402,F401
+
+__all__ = ["RESULTS", "build", "main", "Planned", "planned", "readable_specs", "paper_share", "paper_share_answers",
+           "same_spin_pairs", "pct", "interval", "verdict", "RECORD_VARIANT", "LATE_VARIANT", "fig2_section",
+           "failures_section", "plain_words", "answers_section", "programme_section", "effects_section",
+           "collision_map_section", "rates_section", "rate_ratio_section", "sphere_gas_section",
+           "hard_sphere_md_section"]
 
 RESULTS = os.path.join(S.ROOT, "results")
 

@@ -2,8 +2,10 @@
 
 The templates hold every word; this module gives them the number formats they share, as filters
 and globals: a relative effect in per cent (:func:`pct`), a 95 % interval (:func:`interval`), its
-reading (:func:`verdict`), a value with its error (:func:`pm`, :func:`pm95`), CPU-hours in words
-(:func:`cpu_hours`) and any format specification (:func:`fmt`).
+reading (``verdict``), a value with its error (:func:`pm`, :func:`pm95`), CPU-hours in words
+(``cpu_hours``), a gas's interval against a map's (``apart``) and any format specification
+(:func:`fmt`).  The words among them are the macros of ``macros/common.j2``; :func:`verdict`,
+:func:`cpu_hours` and :func:`apart` call them from Python.
 """
 from __future__ import annotations
 
@@ -26,18 +28,6 @@ def interval(lo, hi, nd=2):
     return "n/a" if pd.isna(lo) or pd.isna(hi) else f"[{100 * lo:+.{nd}f}, {100 * hi:+.{nd}f}] %"
 
 
-def verdict(lo, hi):
-    """Plain words for a 95 % interval of a relative effect."""
-    if pd.isna(lo) or pd.isna(hi):
-        return "not resolved (fewer than 2 pairs)"
-    if lo > 0:
-        return "larger than exact, resolved"
-    if hi < 0:
-        return "smaller than exact, resolved"
-    w = max(abs(lo), abs(hi))
-    return f"no effect resolved: |effect| < {100 * w:.2f} % at 95 %"
-
-
 def pm(x, se, nd=3):
     """A relative value ± one standard error, both in per cent."""
     return f"{pct(x, nd)} ± {100 * se:.{nd}f} %"
@@ -46,14 +36,6 @@ def pm(x, se, nd=3):
 def pm95(x, se):
     """A relative value ± 1.96 standard errors, both in per cent."""
     return f"{pct(x)} ± {100 * 1.96 * se:.2f} %"
-
-
-def cpu_hours(h):
-    """"about 3 CPU-hours", "about 1 CPU-hour", "under half a CPU-hour"."""
-    if h < 0.5:
-        return "under half a CPU-hour"
-    n = max(1, int(h + 0.5))
-    return f"about {n} CPU-hour{'' if n == 1 else 's'}"
 
 
 def fmt(x, spec):
@@ -76,8 +58,10 @@ def environment():
     from ..estimators import MIN_PAIRS
 
     env.globals["min_pairs"] = MIN_PAIRS
-    env.filters.update(pct=pct, pm=pm, pm95=pm95, cpu_hours=cpu_hours, fmt=fmt)
-    env.globals.update(interval=interval, verdict=verdict, finite=finite, isfinite=isfinite, pct=pct, pm=pm, pm95=pm95, apart=apart)
+    env.filters.update(pct=pct, pm=pm, pm95=pm95, fmt=fmt)
+    env.globals.update(interval=interval, finite=finite, isfinite=isfinite, pct=pct, pm=pm, pm95=pm95)
+    common = env.get_template("macros/common.j2").module
+    env.globals.update(verdict=common.verdict, cpu_hours=common.cpu_hours, apart=common.apart)
     return env
 
 
@@ -96,15 +80,23 @@ def lines(text):
     return text.splitlines()
 
 
-def apart(n, lo, hi, map_value, map_se):
-    """Whether a gas's 95 % interval [lo, hi] meets a map's value ± 1.96 SE: "overlap" or
-    "**apart**"; "" from fewer than 2 seeds (no interval)."""
-    if n < 2:
-        return ""
-    lo_m, hi_m = map_value - 1.96 * map_se, map_value + 1.96 * map_se
-    return "overlap" if lo <= hi_m and lo_m <= hi else "**apart**"
-
-
 def isfinite(x):
     """True for a finite number (not NaN, not infinite)."""
     return bool(np.isfinite(x))
+
+
+def verdict(lo, hi):
+    """Plain words for a 95 % interval of a relative effect (the templates' ``verdict``)."""
+    return macro("macros/common.j2", "verdict")(lo, hi)
+
+
+def cpu_hours(h, more=False):
+    """"about 3 CPU-hours", "about 1 CPU-hour", "under half a CPU-hour" (and " more" after it with
+    ``more``): the templates' ``cpu_hours``."""
+    return macro("macros/common.j2", "cpu_hours")(h, more)
+
+
+def apart(n, lo, hi, map_value, map_se):
+    """Whether a gas's 95 % interval [lo, hi] meets a map's value ± 1.96 SE: "overlap" or
+    "**apart**"; "" from fewer than 2 seeds (no interval).  The templates' ``apart``."""
+    return macro("macros/common.j2", "apart")(n, lo, hi, map_value, map_se)

@@ -58,4 +58,4 @@ def stiffness_words(effect_rows, maps):
 
 def cpu_hours_more(h):
     """"about 3 CPU-hours more", "about 1 CPU-hour more", "under half a CPU-hour more"."""
-    return f"{cpu_hours(h)} more"
+    return cpu_hours(h, more=True)
