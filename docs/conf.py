@@ -9,6 +9,8 @@ import logging
 import os
 import sys
 
+from sphinx.util import logging as sphinx_logging
+
 DOCS = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(DOCS)
 sys.path[:0] = [ROOT, os.path.join(DOCS, "_ext")]   # the worktree's code first, then the extensions
@@ -122,15 +124,24 @@ class _KnownDocstringWarnings:
 
 
 def _drop_known_docstring_warnings():
-    from sphinx.util.logging import WarningIsErrorFilter, WarningStreamHandler
+    """Put the filter first on Sphinx's warning handler, before the filter that counts warnings."""
+    from sphinx.util.logging import WarningStreamHandler
 
     for handler in logging.getLogger("sphinx").handlers:
         if isinstance(handler, WarningStreamHandler):
-            filters = handler.filters
-            at = next(i for i, f in enumerate(filters) if isinstance(f, WarningIsErrorFilter))
-            filters.insert(at, _KnownDocstringWarnings())
+            handler.filters.insert(0, _KnownDocstringWarnings())
+
+
+
+
+def _check_no_yade(app, env):
+    """Documenting ``clumpprops.yade`` must not import YADE (no scene is made, nothing is patched)."""
+    if "yade" in sys.modules:
+        sphinx_logging.getLogger(__name__).warning(
+            "the docs build imported YADE: clumpprops.yade must import it lazily, inside its functions")
 
 
 def setup(app):
     app.connect("missing-reference", link_repository_files)
+    app.connect("env-updated", _check_no_yade)
     _drop_known_docstring_warnings()
