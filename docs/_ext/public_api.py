@@ -1,10 +1,10 @@
-"""``public-names`` directive: a module's public names, read from its ``__all__``.
+"""``public-names`` directive: a module's public names, read from its ``__all__``, documented.
 
-Used on the API pages above ``automodule`` so that the pages follow the modules as they change
-(names added, moved into subpackages).  Classes and functions get a summary table (autosummary;
-``automodule`` documents them in full below it); constants (``METHODS``, ``ENGINES``, ...), which
-``automodule`` leaves out when they are imported from a submodule, are documented here with their
-value and their ``#:`` comment.  Dunder names (``__version__``) are left out.
+Used on the API pages below ``automodule`` (which gives the module's docstring) so that the pages
+follow the modules as they change (names added, moved into subpackages): a summary table
+(autosummary), the constants (``METHODS``, ``ENGINES``, ...) with their value and their ``#:``
+comment, then every class and function in full (autodoc, numpydoc).  Dunder names
+(``__version__``) are left out.
 """
 import importlib
 import inspect
@@ -47,22 +47,37 @@ def constant_comment(module_name, name):
     return []
 
 
+def _directive(value):
+    if inspect.isclass(value):
+        return "autoexception" if issubclass(value, BaseException) else "autoclass"
+    return "autofunction"
+
+
 def _rst(module_name):
+    """reST of the summary table, the constants and the full entries of ``module_name.__all__``."""
     module = sys.modules[module_name]
     names = public_names(module_name)
     routines = [n for n in names if not is_constant(getattr(module, n))]
     constants = [n for n in names if is_constant(getattr(module, n))]
-    lines = [".. autosummary::", ""] + [f"   {module_name}.{n}" for n in routines] + [""]
+    lines = [".. autosummary::", ""] + [f"   ~{module_name}.{n}" for n in routines] + [""]
     if constants:
         lines += [".. rubric:: Constants", ""]
     for n in constants:
         lines += [f".. py:data:: {module_name}.{n}", f"   :value: {getattr(module, n)!r}", ""]
         lines += [f"   {line}" for line in constant_comment(module_name, n)] + [""]
+    if routines:
+        lines += [".. rubric:: Classes and functions", ""]
+    for n in routines:
+        value = getattr(module, n)
+        lines += [f".. {_directive(value)}:: {module_name}.{n}"]
+        if inspect.isclass(value):
+            lines += ["   :members:", "   :undoc-members:", "   :show-inheritance:"]
+        lines += [""]
     return lines
 
 
 class PublicNames(Directive):
-    """``.. public-names:: MODULE``: a summary table of ``MODULE.__all__`` and its constants."""
+    """``.. public-names:: MODULE``: ``MODULE.__all__`` as a summary table, then in full."""
 
     required_arguments = 1
 
