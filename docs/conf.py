@@ -54,6 +54,7 @@ suppress_warnings = ["myst.header"]
 autodoc_default_options = {}           # docs/_ext/public_api.py documents each name of __all__
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"            # numpydoc's Parameters sections carry the types
+public_api_modules = ["clumpprops", "clumpprops.yade", "clumpprops.io"]   # each name of __all__ must be documented
 autosummary_generate = False          # summaries are tables on the module pages, no stub files
 numpydoc_show_class_members = False   # autodoc lists the members itself
 numpydoc_class_members_toctree = False

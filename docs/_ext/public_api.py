@@ -63,7 +63,7 @@ def _rst(module_name):
     if constants:
         lines += [".. rubric:: Constants", ""]
     for n in constants:
-        lines += [f".. py:data:: {module_name}.{n}", f"   :value: {getattr(module, n)!r}", ""]
+        lines += [f".. py:data:: {n}", f"   :module: {module_name}", f"   :value: {getattr(module, n)!r}", ""]
         lines += [f"   {line}" for line in constant_comment(module_name, n)] + [""]
     if routines:
         lines += [".. rubric:: Classes and functions", ""]
@@ -90,6 +90,20 @@ class PublicNames(Directive):
         return container.children
 
 
+def check_every_name_documented(app, env):
+    """Warn (an error under -W) for each public name of ``public_api_modules`` that no page documents."""
+    from sphinx.util import logging
+
+    documented = set(env.get_domain("py").objects)
+    for module_name in app.config.public_api_modules:
+        for name in public_names(module_name):
+            if f"{module_name}.{name}" not in documented:
+                logging.getLogger(__name__).warning(f"{module_name}.{name} is public (__all__) but no page "
+                                                    "documents it: add a public-names directive for its module")
+
+
 def setup(app):
     app.add_directive("public-names", PublicNames)
+    app.add_config_value("public_api_modules", [], "env")
+    app.connect("env-check-consistency", check_every_name_documented)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
