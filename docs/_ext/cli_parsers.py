@@ -7,10 +7,12 @@ page always shows the options the command really has.
 """
 import argparse
 import importlib
+import re
 import textwrap
 
 from docutils import nodes
 from docutils.parsers.rst import Directive
+from docutils.statemachine import StringList
 
 
 class _Captured(Exception):
@@ -65,16 +67,50 @@ def report_parser():
     return parser_of("studies.report")
 
 
+COMMAND_ROW = re.compile(r"^(?P<indent>\s+)(?P<name>[\w-]+)\s{2,}(?P<text>\S.*)$")
+
+
+def description_rst(description):
+    """reST of an argparse description: its paragraphs as they are, and a block of indented
+    ``NAME  text`` lines (with deeper-indented continuation lines) as a two-column table."""
+    out, rows = [], []
+
+    def flush_rows():
+        if rows:
+            out.extend([".. list-table::", "   :widths: 1 5", ""])
+            for name, text in rows:
+                out.extend([f"   * - ``{name}``", f"     - {text}"])
+            out.append("")
+            rows.clear()
+
+    indent = None
+    for line in textwrap.dedent(description or "").strip("\n").split("\n"):
+        m = COMMAND_ROW.match(line)
+        if m and (indent is None or len(m.group("indent")) == indent):
+            indent = len(m.group("indent"))
+            rows.append((m.group("name"), m.group("text").strip()))
+        elif rows and line.strip() and len(line) - len(line.lstrip()) > indent:
+            rows[-1] = (rows[-1][0], rows[-1][1] + " " + line.strip())
+        else:
+            flush_rows()
+            indent = None
+            out.append(line)
+    flush_rows()
+    return out
+
+
 class ParserDescription(Directive):
-    """``.. parser-description:: FUNC``: the description of parser ``FUNC()`` of this module, as the
-    command's ``--help`` shows it (a literal block: the study's description is laid out in columns)."""
+    """``.. parser-description:: FUNC``: the description of parser ``FUNC()`` of this module; a
+    list of sub-commands in it (indented ``NAME  text`` lines) becomes a table."""
 
     required_arguments = 1
 
     def run(self):
         parser = globals()[self.arguments[0]]()
-        text = textwrap.dedent(parser.description or "").strip("\n").replace("``", "")
-        return [nodes.literal_block(text, text)]
+        content = StringList(description_rst(parser.description), source=f"<{self.arguments[0]} description>")
+        container = nodes.container()
+        self.state.nested_parse(content, 0, container)
+        return container.children
 
 
 def setup(app):
