@@ -6,7 +6,7 @@ VENV_D13 ?= .venv-debian13
 PY := $(VENV)/bin/python
 D13 := bash scripts/debian13.sh
 PYTEST_ARGS ?= -q
-.PHONY: setup run test test-native test-debian13 setup-debian13 test-wheel test-fast test-random fuzz test-core asan bench example paper
+.PHONY: setup run test test-native test-debian13 setup-debian13 test-wheel docs test-fast test-random fuzz test-core asan bench example paper
 setup:
 	@VENV=$(VENV) bash scripts/setup.sh
 # main job: the worked example, then the paper's Fig. 2 at the quick scale (10 runs of 250 s on 2 cores: 9 min measured in a fresh clone on idle cores, 19-33 min beside make test or study sweeps)
@@ -26,11 +26,17 @@ test: setup setup-debian13
 	$(MAKE) --no-print-directory test-native || status=1; \
 	$(MAKE) --no-print-directory test-debian13 || status=1; \
 	$(MAKE) --no-print-directory test-wheel || status=1; \
+	$(MAKE) --no-print-directory docs || status=1; \
 	exit $$status
 # the library as pip users get it: sdist -> wheel -> a fresh venv without Debian's packages (PyPI),
 # the library tests run from outside the tree, on Python 3.11 and 3.13 (scripts/test_wheel.sh)
 test-wheel:
 	bash scripts/test_wheel.sh
+# the documentation site (Sphinx + MyST + numpydoc, Debian's packages): docs/ -> build/docs/index.html,
+# every warning an error; the code examples of the pages run in tests/test_docs_examples.py
+docs: setup
+	rm -rf build/docs build/docs-doctrees
+	OMP_NUM_THREADS=1 $(PY) -m sphinx -W --keep-going -q -b html -d build/docs-doctrees docs build/docs
 # the library's own tests only (pytest -m library: no YADE, engines or studies), in under a minute
 test-fast: setup
 	OMP_NUM_THREADS=1 $(PY) -m pytest $(PYTEST_ARGS) -m library tests

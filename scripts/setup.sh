@@ -7,7 +7,7 @@
 #
 # Steps (each a function below, run in this order; add new steps the same way):
 #   debian_packages  YADE, LIGGGHTS and LAMMPS (exporter checks), Dask and Jinja2 (the study engine), pybind11,
-#                    python3-build and g++
+#                    python3-build and g++, Sphinx, MyST, numpydoc, sphinx-argparse and furo (make docs)
 #                    (the compiled core) and the scientific stack for /usr/bin/python3 (YADE's interpreter), via apt
 #   make_venv        $VENV: a venv of /usr/bin/python3 that sees Debian's packages and can `import yade`
 #   build_core       the compiled core (C++17 + pybind11), in place
@@ -22,7 +22,7 @@ cd "$(dirname "$0")/.."
 VENV="${VENV:-.venv}"
 PY="$VENV/bin/python"
 YADE_PY=/usr/lib/x86_64-linux-gnu/yade-double/py
-PKGS="yade liggghts lammps python3-distributed python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-jinja2 python3-build python3-venv python3-pip python3-setuptools python3-pybind11 python3-dev g++"
+PKGS="yade liggghts lammps python3-distributed python3-numpy python3-scipy python3-pandas python3-matplotlib python3-pytest python3-hypothesis python3-mpmath python3-jinja2 python3-build python3-venv python3-pip python3-setuptools python3-pybind11 python3-dev g++ python3-sphinx python3-myst-parser python3-numpydoc python3-sphinx-argparse furo"
 
 log() { echo "[setup] $*"; }
 
