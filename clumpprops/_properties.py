@@ -213,7 +213,7 @@ class MassProperties:
 
     def inertia_about(self, point) -> np.ndarray:
         """Inertia tensor (3, 3) kg m^2 about ``point`` (3,) m, axes parallel to the input axes
-        (parallel-axis theorem: I_com + m (|d|^2 1 - d d^T), d = com - point)."""
+        (parallel-axis theorem: ``I_com + m (|d|^2 1 - d d^T)``, ``d = com - point``)."""
         p = np.asarray(point, dtype=np.float64)
         if p.shape not in ((3,), np.shape(self.center_of_mass)):
             raise ValueError(f"point must have shape (3,) or {np.shape(self.center_of_mass)}, got {p.shape}")

@@ -5,9 +5,7 @@ by autodoc + numpydoc from the docstrings of the public modules (docs/api/); the
 line is documented from its own argparse parser (sphinx-argparse, docs/_ext/cli_parsers.py).
 Every package used here is a Debian 12 package (scripts/setup.sh installs them).
 """
-import logging
 import os
-import re
 import sys
 
 from sphinx.util import logging as sphinx_logging
@@ -106,38 +104,6 @@ def link_repository_files(app, env, node, contnode):
     return contnode
 
 
-# -- docstring warnings the code still has ------------------------------------------------------
-# (location pattern, message) pairs dropped from the build so that -W guards everything else; each
-# entry names a docstring to fix in the code, after which the entry goes.  The patterns allow the
-# function to move into a submodule.
-KNOWN_DOCSTRING_WARNINGS = [
-    # MassProperties.inertia_about: "|d|^2" (Sphinx names the class for its members' docstrings)
-    (r"docstring of clumpprops(\.\w+)*\.MassProperties:", "Inline substitution_reference start-string"),
-    (r"docstring of clumpprops\.yade(\.\w+)*\.clump_errors:", "Undefined substitution referenced"),  # |dm|, |dc|
-    (r"docstring of clumpprops\.yade(\.\w+)*\.erase:", "Bullet list ends without a blank line"),
-]
-
-
-class _KnownDocstringWarnings:
-    """A logging filter that drops the warnings of KNOWN_DOCSTRING_WARNINGS."""
-
-    def filter(self, record):
-        where = str(getattr(record, "location", "") or "")
-        message = record.getMessage()
-        return not any(re.search(w, where) and m in message for w, m in KNOWN_DOCSTRING_WARNINGS)
-
-
-def _drop_known_docstring_warnings():
-    """Put the filter first on Sphinx's warning handler, before the filter that counts warnings."""
-    from sphinx.util.logging import WarningStreamHandler
-
-    for handler in logging.getLogger("sphinx").handlers:
-        if isinstance(handler, WarningStreamHandler):
-            handler.filters.insert(0, _KnownDocstringWarnings())
-
-
-
-
 def _check_no_yade(app, env):
     """Documenting ``clumpprops.yade`` must not import YADE (no scene is made, nothing is patched)."""
     if "yade" in sys.modules:
@@ -148,4 +114,3 @@ def _check_no_yade(app, env):
 def setup(app):
     app.connect("missing-reference", link_repository_files)
     app.connect("env-updated", _check_no_yade)
-    _drop_known_docstring_warnings()

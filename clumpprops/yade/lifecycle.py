@@ -126,6 +126,7 @@ def erase(body_id, eraseClumpMembers=False):
       (the clump goes when its last sphere goes);
     * the correction member itself: refused (erase the clump, or release spheres instead);
     * anything else: YADE's erase.
+
     Returns YADE's return value (True).  Mirrors ``O.bodies.erase(id, eraseClumpMembers)``: the
     keyword keeps YADE's camelCase name.
     """

@@ -160,7 +160,7 @@ def _mismatch(cid, e_m, e_c, e_i, rtol):
 def clump_errors(clump_id, method=DEFAULT_METHOD):
     """Relative differences between the clump's YADE state and the library, for checking.
 
-    Returns a dict: ``mass`` |dm|/m; ``center_of_mass`` |dc| / clump radius of gyration;
+    Returns a dict: ``mass`` ``|dm|/m``; ``center_of_mass`` ``|dc|`` / clump radius of gyration;
     ``inertia`` max-abs of (R diag(state.inertia) R^T - I_exact) / max principal moment.
     """
     mp = exact_properties(clump_id, method=method)
