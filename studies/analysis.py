@@ -23,7 +23,7 @@ energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; p
 energy_equal_energy.csv  the same for the equal-energy runs
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
 
-MSD: time-origin averaged (FFT, :mod:`studies.msd`) over the record's analysis window from
+MSD: time-origin averaged (FFT, :func:`studies.correlation.msd_fft`) over the record's analysis window from
 t_eq on (``analysis.t_eq``, or "auto": detected from the rotational share of kinetic energy,
 :func:`studies.design.analysis_cut`).  D per seed: Green-Kubo on the window's velocity
 autocorrelation (:func:`studies.design.run_d`, docs/estimator.md); ``runs.csv`` also lists the
@@ -42,7 +42,8 @@ import time
 import numpy as np
 
 from . import design, engine, runner
-from .estimators import ols_msd as fit_d, t_interval
+from .diffusion import ols_msd
+from .intervals import t_interval
 from . import spec as S
 
 ESTIMATOR = design.ESTIMATOR   # D per run: Green-Kubo (docs/estimator.md); OLS on the MSD kept for comparison
@@ -150,7 +151,7 @@ def analyze(spec, log=print):
         g = design.run_d(r, t_eq)
         lag, msd = run_msd(r, g["t_cut"])
         try:
-            d_ols = fit_d(lag, msd, a["fit_lo"], a["fit_hi"])
+            d_ols = ols_msd(lag, msd, a["fit_lo"], a["fit_hi"])
         except ValueError:
             d_ols = np.nan
         extra[n] = (g["D_stderr"], g["t_cut"], g["t_cut_detected"], d_ols)
@@ -227,7 +228,7 @@ def analyze(spec, log=print):
         alt = {}
         for s, n, r in good:
             lag, msd = run_msd(r, t_eq_s)
-            alt.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = fit_d(lag, msd, lo, hi)
+            alt.setdefault((s["case"], s["protocol"]), {})[s["seed"]] = ols_msd(lag, msd, lo, hi)
         ex_alt = alt.get(("exact", "paired"), {})
         for (case, prot), seeds in alt.items():
             mean, clo, chi, se, n = t_interval(list(seeds.values()))

@@ -16,7 +16,7 @@ m, sigma, E and nu: hard spheres and Hertz spheres, first Chapman-Enskog approxi
 full linear Boltzmann solution, each divided by the Enskog factor.  ``ratio_hertz`` is
 D_measured / D_Hertz,Boltzmann with a 95 % Fieller interval that carries both errors: the runs'
 Student-t mean and the prediction's own Monte Carlo error (``d_hertz_boltzmann_se``, ~0.04 %
-over the default 16,000 independent chains, ~0.1 % over 2,000; :func:`studies.estimators.fieller_from_means` with the
+over the default 16,000 independent chains, ~0.1 % over 2,000; :func:`studies.intervals.fieller_from_means` with the
 runs' n - 1 dof, whose coverage is tested; ignoring the theory's error covered 91.8 % at the
 1e7 Pa gas's sizes).
 ``dt_effect`` is the relative change of D that the runs' time step ``dt`` [s] makes
@@ -43,7 +43,7 @@ from scipy import stats
 
 from . import design, kinetic
 from . import spec as S
-from .estimators import fieller_from_means, t_interval
+from .intervals import fieller_from_means, t_interval
 
 RESULTS = os.path.join(S.ROOT, "results")
 COLUMNS = ("source", "youngs_modulus", "poisson", "estimator", "n_runs", "D", "ci_low", "ci_high", "stderr", "kT",

@@ -19,7 +19,7 @@ import pandas as pd
 
 from .. import design, effects, effects_plots, rates
 from .. import spec as S
-from ..estimators import MIN_PAIRS
+from ..sequential import MIN_PAIRS
 
 
 def read_json(path):
@@ -142,7 +142,7 @@ def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=No
     start at another time step or run length) is left out of the larger sample (``n_dropped``).
     None without two pairs of each.  ``values``: :func:`studies.effects.paired_values` of
     ``specs``, if already read."""
-    from ..estimators import fieller_ratio
+    from ..intervals import fieller_ratio
 
     values = effects.paired_values(specs) if values is None else values
 
@@ -243,7 +243,7 @@ def same_spin_rows(specs, records=None):
     ratio - 1) and the effect with that drift divided out (``cm, clo, chi``: hard-particle scaling
     D ~ thermal speed), each a t-interval over seeds.  ``records``: each spec's records in the
     order of ``specs``, if already read."""
-    from ..estimators import t_interval
+    from ..intervals import t_interval
 
     out = []
     for i, sp in enumerate(specs):
