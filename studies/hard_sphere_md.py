@@ -49,7 +49,7 @@ import time
 import numpy as np
 
 from . import correlation, diffusion, intervals
-from . import kinetic as K
+from . import kinetic
 from .gas_model import random_sequential_positions
 from .spec import ROOT
 
@@ -268,12 +268,12 @@ def main(argv=None):
     entry = next((e for e in read(a.out) if all(e.get(k) == v for k, v in params.items())), None)
     if entry is None:                  # a new entry (it replaces one of the same N and other parameters)
         entry = dict(params, number_density=n_dens, volume_fraction=phi, rho_sigma3=n_dens * SIGMA ** 3,
-                     enskog_chi=K.enskog_chi(phi), per_run=[], md_cpu_s=0.0)
+                     enskog_chi=kinetic.enskog_chi(phi), per_run=[], md_cpu_s=0.0)
     if entry.get("ref_chains") != a.ref_chains:
         t1 = time.process_time()
-        d_ref, se_ref = K.d_boltzmann(n_dens, KT, MASS, SIGMA, None, n_chains=a.ref_chains, n_steps=3000, seed=a.n,
+        d_ref, se_ref = kinetic.d_boltzmann(n_dens, KT, MASS, SIGMA, None, n_chains=a.ref_chains, n_steps=3000, seed=a.n,
                                       n_particles=a.n)
-        _, _, n_partners, g_mean = K._partner_law(n_dens, KT, MASS, a.n)     # N - 1 partners, zero momentum
+        _, _, n_partners, g_mean = kinetic._partner_law(n_dens, KT, MASS, a.n)     # N - 1 partners, zero momentum
         entry.update(d_boltzmann=d_ref, d_boltzmann_se=se_ref, ref_chains=a.ref_chains,
                      ref_cpu_s=time.process_time() - t1,
                      rate_enskog=entry["enskog_chi"] * n_partners * math.pi * SIGMA ** 2 * g_mean)
