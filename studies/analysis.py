@@ -19,8 +19,8 @@ ratio_D.csv            the same ratio for the diffusion coefficients
 diff_D.csv             D_case - D_exact paired by seed, with a t-interval (absolute and relative)
 protocol_effect.csv    D_equal_energy / D_paired of a case, paired by seed, vs sqrt(m_exact / m)
 diffusion_sensitivity.csv  OLS D and D - D_exact for other equilibration cuts / fit windows
-energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol)
-energy_equal_energy.csv  the same for the equal-energy runs
+energy.csv             case, seed, t, e_trans, e_rot, e_elastic (J, whole gas; paired protocol;
+                       energy_equal_energy.csv: the same for the equal-energy runs)
 energy_partition.csv   case, protocol, t, trans_fraction, rot_fraction (+ stderr), seed means
 
 MSD: time-origin averaged (FFT, :func:`studies.correlation.msd_fft`) over the record's analysis window from
@@ -120,11 +120,6 @@ class RatioOfD:
     stderr: float
 
 
-def _write_records(path, records, cls):
-    """``records`` (dataclass instances of ``cls``) as a CSV with the dataclass's field names as header."""
-    _write_csv(path, list(cls.__dataclass_fields__), [astuple(r) for r in records])
-
-
 def _paired_with_exact(per):
     """(case, protocol, runs, exact runs, seeds both have) for every case except exact/paired itself."""
     ex = per.get(("exact", "paired"), {})
@@ -150,6 +145,11 @@ def _write_csv(path, header, rows):
         for r in rows:
             w.writerow([f"{v:.10g}" if isinstance(v, float) else v for v in r])
     os.replace(tmp, path)
+
+
+def _write_records(path, records, cls):
+    """``records`` (instances of the dataclass ``cls``) as a CSV, the field names as its header."""
+    _write_csv(path, list(cls.__dataclass_fields__), [astuple(r) for r in records])
 
 
 def label(case, protocol):
@@ -248,7 +248,7 @@ def write_runs_table(out, records, by_case, estimates):
 
 
 def _common_seeds(*seed_maps):
-    return sorted(set.intersection(*(set(m) for m in seed_maps)))
+    return sorted(set.intersection(*(set(m) for m in seed_maps)))   # the seeds every map has
 
 
 def case_summaries(by_case, masses, m_exact):
@@ -268,15 +268,6 @@ def case_summaries(by_case, masses, m_exact):
                                * np.sqrt(m_exact / masses[case]))
         out.append(CaseSummary(case, protocol, n, mean, lo, hi, se, drift, prediction))
     return out
-
-
-def write_case_tables(out, summaries):
-    """``summary.csv`` (the paired protocol) and ``protocols.csv`` (every protocol)."""
-    _write_csv(os.path.join(out, "summary.csv"),
-               ["case", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "max_energy_drift"],
-               [[s.case, s.n_seeds, s.diffusion_coefficient, s.ci_low, s.ci_high, s.max_energy_drift]
-                for s in summaries if s.protocol == "paired"])
-    _write_records(os.path.join(out, "protocols.csv"), summaries, CaseSummary)
 
 
 def paired_differences(by_case):
@@ -473,7 +464,11 @@ def analyze(spec, log=print):
     masses = {r["case"]: r["case_body"]["mass"] for r in records}
     m_exact = next((r["exact_mass"] for r in records), np.nan)
     summaries = case_summaries(by_case, masses, m_exact)
-    write_case_tables(out, summaries)
+    _write_csv(os.path.join(out, "summary.csv"),
+               ["case", "n_seeds", "diffusion_coefficient", "ci_low", "ci_high", "max_energy_drift"],
+               [[s.case, s.n_seeds, s.diffusion_coefficient, s.ci_low, s.ci_high, s.max_energy_drift]
+                for s in summaries if s.protocol == "paired"])
+    _write_records(os.path.join(out, "protocols.csv"), summaries, CaseSummary)
     differences = paired_differences(by_case)
     _write_records(os.path.join(out, "diff_D.csv"), differences, PairedDifference)
     effects = protocol_effects(by_case, masses, m_exact)
