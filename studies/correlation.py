@@ -66,6 +66,16 @@ def _group_autocorr(a, L, labels, G):
     return sfft.irfft(spec, n=n, axis=-1)[:, :L]
 
 
+def _trajectories(a, name):
+    """``a`` as float64 (T, N, 3); a (T, 3) array is one particle's trajectory."""
+    out = np.asarray(a, dtype=np.float64)
+    if out.ndim == 2:
+        out = out[:, None, :]
+    if out.ndim != 3:
+        raise ValueError(f"{name} must be (T, N, 3) or (T, 3), got shape {np.shape(a)}")
+    return out
+
+
 def vacf_fft(vel, max_lag_frames, groups=None):
     """Time-origin and particle averaged velocity autocorrelation, by FFT.
 
@@ -80,11 +90,7 @@ def vacf_fft(vel, max_lag_frames, groups=None):
     average over the particles of each group; ``C`` is the particle-weighted mean of the
     groups.  Cost O(N T log T).
     """
-    v = np.asarray(vel, dtype=np.float64)
-    if v.ndim == 2:
-        v = v[:, None, :]
-    if v.ndim != 3:
-        raise ValueError(f"vel must be (T, N, 3) or (T, 3), got shape {np.shape(vel)}")
+    v = _trajectories(vel, "vel")
     T, N, _ = v.shape
     if T < 2:
         raise ValueError("need at least 2 frames")
@@ -107,11 +113,7 @@ def msd_fft(pos, max_lag_frames=None, groups=None):
     average over the particles of each group.  Works in float64 whatever the input; round-off
     below 0 is clipped to 0.  Cost O(N T log T), zero padding to T + L only.
     """
-    x = np.asarray(pos, dtype=np.float64)
-    if x.ndim == 2:
-        x = x[:, None, :]
-    if x.ndim != 3:
-        raise ValueError(f"pos must be (T, N, 3) or (T, 3), got shape {np.shape(pos)}")
+    x = _trajectories(pos, "pos")
     T, N, _ = x.shape
     L = T if max_lag_frames is None else int(min(max_lag_frames, T - 1)) + 1
     labels, G = _labels(N, groups)
