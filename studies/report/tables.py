@@ -136,7 +136,7 @@ def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=No
     """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
     D_spheres/D_exact - 1 of the sphere gas against exact, with Fieller's 95 % interval
-    (studies.estimators.fieller_ratio, which takes a and b independent; coverage checked in the
+    (studies.intervals.fieller_ratio, which takes a and b independent; coverage checked in the
     tests).  Independence: an exact run's initial state (:func:`studies.effects.state_key`, seed) is
     in at most one of the two samples; a seed whose state both use (the same exact run, or the same
     start at another time step or run length) is left out of the larger sample (``n_dropped``).
