@@ -373,12 +373,12 @@ def write_energy_tables(out, good):
     energy_rows = {"paired": [], "equal_energy": []}
     shares = {}          # (case, protocol) -> [(t, translational share, rotational share) per run]
     for rec in good:
-        e = {k: np.asarray(v) for k, v in rec["energy"].items()}
-        for row in zip(e["t"], e["e_trans"], e["e_rot"], e["e_elastic"]):
+        energies = {k: np.asarray(v) for k, v in rec["energy"].items()}
+        for row in zip(energies["t"], energies["e_trans"], energies["e_rot"], energies["e_elastic"]):
             energy_rows[rec["protocol"]].append([rec["case"], rec["seed"]] + [float(v) for v in row])
-        e_total = e["e_trans"] + e["e_rot"] + e["e_elastic"]
-        shares.setdefault((rec["case"], rec["protocol"]), []).append((e["t"], e["e_trans"] / e_total,
-                                                                        e["e_rot"] / e_total))
+        e_total = energies["e_trans"] + energies["e_rot"] + energies["e_elastic"]
+        shares.setdefault((rec["case"], rec["protocol"]), []).append((energies["t"], energies["e_trans"] / e_total,
+                                                                        energies["e_rot"] / e_total))
     header = ["case", "seed", "t", "e_trans", "e_rot", "e_elastic"]
     _write_csv(os.path.join(out, "energy.csv"), header, energy_rows["paired"])
     if energy_rows["equal_energy"]:
@@ -404,7 +404,7 @@ def _partition_rows(shares):
 
 def study_params(spec, records, good, n_manifest, n_missing):
     """``params.json``: the spec's tables and what the runs were (versions, commits, time steps, wall time)."""
-    a = spec["analysis"]
+    options = spec["analysis"]
     any_run = good[0] if good else (records[0] if records else {})
     return {
         "study": spec["study"], "spec": spec["path"],
@@ -412,10 +412,10 @@ def study_params(spec, records, good, n_manifest, n_missing):
         "material": spec["material"], "gas": spec["gas"], "run": spec["run"], "analysis": spec["analysis"],
         "shapes": spec["shapes"], "groups": spec["groups"], "spheres": spec["spheres"],
         "n_particles": spec["gas"]["n_particles"], "box_length": any_run.get("box_length"),
-        "t_end": spec["run"]["t_end"], "dt": any_run.get("facts", {}).get("dt"), "t_eq": a["t_eq"],
+        "t_end": spec["run"]["t_end"], "dt": any_run.get("facts", {}).get("dt"), "t_eq": options["t_eq"],
         # every time step of the runs (several when the study raised run.dt_factor, run.legacy_dt)
         "dts": sorted({r["facts"]["dt"] for r in records if "dt" in r.get("facts", {})}),
-        "fit_window_s": [a["fit_lo"], a["fit_hi"]], "estimator": ESTIMATOR,
+        "fit_window_s": [options["fit_lo"], options["fit_hi"]], "estimator": ESTIMATOR,
         "case_bodies": {r["case"]: r["case_body"] for r in records},
         "model_version": study_spec.MODEL_VERSION,
         "yade_versions": sorted({r["yade_version"] for r in records}),
