@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from studies import estimators as E  # noqa: E402
+from studies import correlation, diffusion, equilibration, intervals, sequential, synthetic  # noqa: E402
 
 N = 864
 DT = 0.25
@@ -58,18 +58,18 @@ Q15 = None
 def analyse(vel, pos, lag_v, lag_m, jackknife=True):
     """{estimator: (D, se)} of one run (the jackknife SE for the primary GK variant and OLS)."""
     out = {}
-    c, cg = E.vacf_fft(vel, MAX_LAG_VACF, groups=GROUPS)
+    c, cg = correlation.vacf_fft(vel, MAX_LAG_VACF, groups=GROUPS)
     for name, ct in GK_VARIANTS.items():
         try:
-            dfull = E.diffusion_green_kubo(lag_v, c, c_trunc=ct)
-            se = E.green_kubo_stderr(lag_v, cg, c_trunc=ct) if jackknife and name == PRIMARY else np.nan
+            dfull = diffusion.diffusion_green_kubo(lag_v, c, c_trunc=ct)
+            se = diffusion.green_kubo_stderr(lag_v, cg, c_trunc=ct) if jackknife and name == PRIMARY else np.nan
             out[name] = (dfull, se)
         except ValueError:
             out[name] = (np.nan, np.nan)
     if pos is not None:
-        m, mg = E.msd_fft_groups(pos, MAX_LAG_MSD, groups=GROUPS)
+        m, mg = correlation.msd_fft(pos, MAX_LAG_MSD, groups=GROUPS)
         for name, (lo, hi) in OLS_WINDOWS.items():
-            out[name] = (float(E.ols_msd(lag_m, m, lo, hi)), E.ols_msd_stderr(lag_m, mg, lo, hi))
+            out[name] = (float(diffusion.ols_msd(lag_m, m, lo, hi)), diffusion.ols_msd_stderr(lag_m, mg, lo, hi))
     return out
 
 
@@ -97,12 +97,12 @@ def seed_coverage(x, truth, n, rng, n_resample=20000):
     k = len(x) // n
     hits = []
     for g in range(k):
-        _, lo, hi, _, _ = E.t_interval(x[g * n:(g + 1) * n])
+        _, lo, hi, _, _ = intervals.t_interval(x[g * n:(g + 1) * n])
         hits.append(lo <= truth <= hi)
     idx = rng.integers(0, len(x), size=(n_resample, n))
     s = x[idx]
     m = s.mean(1)
-    h = E._tq(0.95, n - 1) * s.std(1, ddof=1) / math.sqrt(n)
+    h = intervals.t_quantile(0.95, n - 1) * s.std(1, ddof=1) / math.sqrt(n)
     res = np.abs(m - truth) <= h
     return dict(n_runs=n, disjoint_groups=k, coverage_disjoint=float(np.mean(hits)) if k else None,
                 coverage_resampled=float(res.mean()), mean_halfwidth_rel=float(h.mean() / abs(truth)))
@@ -114,17 +114,17 @@ def sequential_sim(draw, truth, target, rng, n_sim=4000, min_n=8, batch=2, max_n
     for _ in range(n_sim):
         x = list(draw(rng, min_n))
         while True:
-            st = E.sequential_status(x, target, min_n=min_n, max_n=max_n)
+            st = sequential.sequential_status(x, target, min_n=min_n, max_n=max_n)
             if stop_on_mean:       # the wrong rule (control): stop once the interval excludes 0
-                _, lo, hi, _, _ = E.t_interval(x)
+                _, lo, hi, _, _ = intervals.t_interval(x)
                 stop = (lo > 0 or hi < 0) or len(x) >= max_n
             else:
                 stop = st["met"] or len(x) >= max_n
             if stop:
                 break
-            k = E.next_batch(st, batch=batch, max_n=max_n) if not stop_on_mean else batch
+            k = sequential.next_batch(st, batch=batch, max_n=max_n) if not stop_on_mean else batch
             x.extend(draw(rng, max(k, 1)))
-        _, lo, hi, _, _ = E.t_interval(x)
+        _, lo, hi, _, _ = intervals.t_interval(x)
         hits.append(lo <= truth <= hi)
         ns.append(len(x))
         met.append(st["met"])
@@ -214,7 +214,7 @@ def main(argv=None):
     for r in todo:
         rng = np.random.default_rng([args.seed, r])
         lengths = LENGTHS if long_run(r) else (400.0,)
-        vel, pos = E.simulate_ou(rng, N, frames[max(lengths)], DT, tau, math.sqrt(SIGMA_V2),
+        vel, pos = synthetic.simulate_ou(rng, N, frames[max(lengths)], DT, tau, math.sqrt(SIGMA_V2),
                                  positions="trapezoid")
         for L in lengths:
             res = analyse(vel[:frames[L]], pos[:frames[L]], lag_v, lag_m)
@@ -225,7 +225,7 @@ def main(argv=None):
         z_a = (vel[1:nb] - math.exp(-DT / tau) * vel[:nb - 1]).transpose(1, 2, 0) / math.sqrt(
             SIGMA_V2 * (1 - math.exp(-2 * DT / tau)))
         z_b = PAIR_RHO * z_a + math.sqrt(1 - PAIR_RHO ** 2) * rng.standard_normal(z_a.shape)
-        vb, _ = E.simulate_ou(rng, N, nb, DT, tau * PAIR_RATIO, math.sqrt(SIGMA_V2), positions=False,
+        vb, _ = synthetic.simulate_ou(rng, N, nb, DT, tau * PAIR_RATIO, math.sqrt(SIGMA_V2), positions=False,
                               v0=vel[0], noise=(z_b, None))
         resb = analyse(vb, None, lag_v, lag_m, jackknife=False)
         for k in GK_VARIANTS:
@@ -309,7 +309,7 @@ def main(argv=None):
             for sd_seed in range(200):
                 t, y = relaxing_share(np.random.default_rng([args.seed, 7, int(t_end), int(amp > 0), sd_seed]),
                                       t_end, amp)
-                res = E.detect_equilibration(t, y, 0.4)
+                res = equilibration.detect_equilibration(t, y, 0.4)
                 cuts.append(res["t_cut"])
                 oks.append(res["ok"])
             cuts = np.array(cuts)
@@ -324,7 +324,7 @@ def main(argv=None):
                     replicas_1000s=n_long,
                     lengths_s=list(LENGTHS), groups=GROUPS, max_lag_vacf_s=MAX_LAG_VACF * DT,
                     max_lag_msd_s=MAX_LAG_MSD * DT, pair_ratio=PAIR_RATIO, pair_noise_corr=PAIR_RHO,
-                    seed=args.seed, gk_fit_window=list(E.GK_FIT_WINDOW), primary=PRIMARY),
+                    seed=args.seed, gk_fit_window=list(diffusion.GK_FIT_WINDOW), primary=PRIMARY),
         estimators=table, pairs=pairs, sequential=seq, equilibration=eq,
         per_run={f"{L:g}s|{k}": [None if not np.isfinite(v) else round(float(v), 6) for v in D[L][k]]
                  for L in LENGTHS for k in (PRIMARY, *OLS_WINDOWS)},

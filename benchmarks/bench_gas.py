@@ -41,7 +41,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 from studies import engine, runner  # noqa: E402
 from studies import spec as S  # noqa: E402
-from studies.msd import msd_bruteforce, msd_fft  # noqa: E402
+from studies.correlation import msd_bruteforce, msd_fft  # noqa: E402
 
 SCRIPT = os.path.join(ROOT, "yade_scripts", "granular_gas.py")
 

@@ -31,7 +31,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from studies import estimators as E  # noqa: E402
+from studies import correlation, diffusion  # noqa: E402
 from studies import kinetic as K  # noqa: E402
 
 # the sphere gas of studies/specs/sphere_gas.toml at E = 1e7 Pa (results/sphere_gas.csv)
@@ -63,9 +63,9 @@ def one_run(seed, n=N, t_end=T_END, dt=DT, max_lag=MAX_LAG):
     vel = np.empty((nf, n, 3))
     for b in range(n):
         vel[:, b] = states[np.searchsorted(times[:, b], grid, side="right") - 1, b]
-    c = E.vacf_fft(vel, int(round(max_lag / dt)))
+    c = correlation.vacf_fft(vel, int(round(max_lag / dt)))
     lag = np.arange(len(c)) * dt
-    return E.diffusion_green_kubo(lag, c), E.vacf_integral(lag, c)
+    return diffusion.diffusion_green_kubo(lag, c), diffusion.vacf_integral(lag, c)
 
 
 def main(argv=None):

@@ -38,7 +38,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from studies import estimators as est  # noqa: E402
+from studies import diffusion, intervals  # noqa: E402
 
 VARIANTS = {  # name: (truncation in tau_hat, tail-fit window in tau_hat)
     "t_c = 1 tau, fit 1-3 tau": (1.0, (1.0, 3.0)),
@@ -57,7 +57,7 @@ META = ("run", "tau", "tail_share", "clipped")     # run_table keys that are not
 def _gk(lag, c, **kw):
     """Green-Kubo D, or NaN when the variant's truncation (or a 5-lag fit) does not fit in the stored lags."""
     try:
-        return est.diffusion_green_kubo(lag, c, **kw)
+        return diffusion.diffusion_green_kubo(lag, c, **kw)
     except ValueError:
         return float("nan")
 
@@ -65,7 +65,7 @@ def _gk(lag, c, **kw):
 def _first_seconds(lag, c):
     """D_init = C(0) tau_init / 3, or NaN when the first seconds give no decay time."""
     try:
-        return float(c[0]) * est.initial_decay_time(lag, c) / 3.0
+        return float(c[0]) * diffusion.initial_decay_time(lag, c) / 3.0
     except ValueError:
         return float("nan")
 
@@ -94,14 +94,14 @@ def run_table(paths):
         w = rec["windows"][0]  # the whole run: the window studies.design uses for equilibrated starts
         c = np.asarray(w["vacf"])
         lag = np.arange(len(c)) * w["frame_interval"]  # as studies.design.run_d (stored lags are rounded)
-        base = est.diffusion_green_kubo(lag, c, full_output=True)
+        base = diffusion.diffusion_green_kubo(lag, c, full_output=True)
         r = {"run": rec["name"], "D": base["D"], "tau": base["tau_hat"], "tail_share": base["tail"] / base["D"],
              "clipped": {name for name, (_, fw) in VARIANTS.items() if fw[1] * base["tau_hat"] > lag[-1] + 1e-9}}
         if 3.0 * base["tau_hat"] > lag[-1] + 1e-9:
             r["clipped"] |= {"D", SHAPE_FACTOR}        # the estimator of record fits on 1-3 tau_hat
         for name, (ct, fw) in VARIANTS.items():
             r[name] = _gk(lag, c, c_trunc=ct, fit_window=fw)
-        r[f"plain integral to {lag[-1]:.0f} s"] = est.vacf_integral(lag, c)
+        r[f"plain integral to {lag[-1]:.0f} s"] = diffusion.vacf_integral(lag, c)
         r["MSD slope, lags >= 4 tau"] = msd_slope(np.asarray(w["msd_lag_s"]), np.asarray(w["msd"]), 4.0,
                                                   base["tau_hat"])
         r[FIRST_SECONDS] = _first_seconds(lag, c)
@@ -154,7 +154,7 @@ def paired(rows, a, b):
         ok = [s for s in seeds if np.isfinite(by[b][s].get(name, np.nan) / by[a][s].get(name, np.nan))]
         rel = np.array([by[b][s][name] / by[a][s][name] - 1.0 for s in ok])
         clipped = sum(1 for s in ok if name in by[a][s]["clipped"] or name in by[b][s]["clipped"])
-        stats = est.t_interval(rel)[:3] if len(rel) >= 2 else (np.nan, np.nan, np.nan)
+        stats = intervals.t_interval(rel)[:3] if len(rel) >= 2 else (np.nan, np.nan, np.nan)
         out[name] = stats + (len(rel), clipped)
     sets = {lab: (float(np.mean([by[lab][s]["tau"] for s in seeds])),
                   float(np.nanmean([by[lab][s][SHAPE_FACTOR] for s in seeds])), len(seeds)) for lab in (a, b)}
@@ -201,7 +201,7 @@ def main():
         if len(rel) < 2:
             print(f"{name:>42} | n/a: a value in {len(rel)} of {len(rows)} runs (t_c beyond the stored lags?)")
             continue
-        m, lo, hi, _, _ = est.t_interval(rel)
+        m, lo, hi, _, _ = intervals.t_interval(rel)
         print(f"{name:>42} | {100 * m:+27.3f} % | [{100 * lo:+.3f}, {100 * hi:+.3f}] %{note}")
 
 

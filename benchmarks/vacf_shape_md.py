@@ -31,14 +31,14 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from studies import estimators as E  # noqa: E402
+from studies import correlation, diffusion, intervals  # noqa: E402
 from studies import hard_sphere_md as H  # noqa: E402
 
 T_EQ, T_END, MAX_LAG = 50.0, 1000.0, 150.0
 WINDOWS = ((0.0, 0.5), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))       # in units of tau_hat
 RECORD = "t_c = 2 tau, fit 1-3 tau (the estimator of record)"
 VARIANTS = {                                                     # name: (truncation, tail-fit window) in tau_hat
-    RECORD: (E.GK_C_TRUNC, E.GK_FIT_WINDOW),
+    RECORD: (diffusion.GK_C_TRUNC, diffusion.GK_FIT_WINDOW),
     "t_c = 1 tau, fit 1-3 tau": (1.0, (1.0, 3.0)),
     "t_c = 2 tau, fit 1.5-3.5 tau": (2.0, (1.5, 3.5)),
     "t_c = 2 tau, fit 2-4 tau": (2.0, (2.0, 4.0)),
@@ -76,7 +76,7 @@ def jackknife(values_fn, data):
 
 def one_run(seed, lib):
     out, _ = H.equilibrated_run(seed, t_end=T_END, t_eq=T_EQ, lib=lib)
-    c = E.vacf_fft(out["vel"], int(round(MAX_LAG / H.FRAME_DT)))
+    c = correlation.vacf_fft(out["vel"], int(round(MAX_LAG / H.FRAME_DT)))
     return c, H.exact_integral(out["pos"], out["vel"], H.FRAME_DT, MAX_LAG)
 
 
@@ -99,7 +99,7 @@ def main(argv=None):
             print(f"[vacf_shape_md] {i + 1}/{a.runs} runs, {time.time() - t0:.0f} s", flush=True)
     V, X = np.array(V), np.array(X)
     lag = np.arange(V.shape[1]) * H.FRAME_DT
-    tau = E.correlation_time(lag, V.mean(axis=0))
+    tau = diffusion.correlation_time(lag, V.mean(axis=0))
     times, times_se = jackknife(lambda c: local_decay_times(lag, c, tau), V)
     rise, rise_se = jackknife(lambda c: (lambda t: t[2] / t[0] - 1.0)(local_decay_times(lag, c, tau)), V)
     print(f"{a.runs} runs of {H.N} hard spheres x {T_END - T_EQ:g} s; tau_hat of the mean VACF {tau:.3f} s")
@@ -110,18 +110,18 @@ def main(argv=None):
     res = {}
     print("estimator variants against the exact integral to 150 s and against the estimator of record, same runs\n"
           "(ratios of means, paired SE; sd of D per run):")
-    d_of = {name: np.array([E.diffusion_green_kubo(lag, c, c_trunc=ct, fit_window=fw) for c in V])
+    d_of = {name: np.array([diffusion.diffusion_green_kubo(lag, c, c_trunc=ct, fit_window=fw) for c in V])
             for name, (ct, fw) in VARIANTS.items()}
     d_rec = d_of[RECORD]
     for name, d in d_of.items():
-        m, se = E.ratio_of_means(d, X)
-        mr, ser = E.ratio_of_means(d, d_rec)
+        m, se = intervals.ratio_of_means(d, X)
+        mr, ser = intervals.ratio_of_means(d, d_rec)
         sd = float(d.std(ddof=1) / d.mean())
         res[name] = dict(rel_exact=m, rel_exact_se=se, rel_record=mr, rel_record_se=ser, sd_per_run=sd)
         print(f"  {name:52s} {100 * m:+.3f} % +- {100 * se:.3f} % | {100 * mr:+.3f} % +- {100 * ser:.3f} % | "
               f"sd per run {100 * sd:.2f} %")
-    plain = np.array([E.vacf_integral(lag, c) for c in V])
-    pm, pse = E.ratio_of_means(plain, X)
+    plain = np.array([diffusion.vacf_integral(lag, c) for c in V])
+    pm, pse = intervals.ratio_of_means(plain, X)
     print(f"  plain trapezoid to 150 s (the quadrature check)            {100 * pm:+.3f} % +- {100 * pse:.3f} %")
     out = dict(about=__doc__.split("\n")[0], runs=a.runs, seed=a.seed, n=H.N, t_eq=T_EQ, t_end=T_END, max_lag=MAX_LAG,
                frame_dt=H.FRAME_DT, tau_hat=tau, windows_tau=[list(w) for w in WINDOWS],

@@ -6,12 +6,12 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
 
 * **The analysis window.**  ``analysis.t_eq`` in seconds, or ``"auto"``: the equilibration cut
   detected from the record's rotational share of kinetic energy
-  (:func:`studies.estimators.detect_equilibration`, equipartition 2/5 for linear clumps, 1/2
+  (:func:`studies.equilibration.detect_equilibration`, equipartition 2/5 for linear clumps, 1/2
   for others), rounded up to the next stored window start (``analysis.cuts``).  Runs started
   in equilibrium (``gas.start = "equipartition"``) and sphere gases have no transient: "auto"
   uses their whole run (the first stored window).
 * **D of one run**: Green-Kubo on the record's velocity autocorrelation
-  (:func:`studies.estimators.diffusion_green_kubo`, e-folding truncation plus a fitted
+  (:func:`studies.diffusion.diffusion_green_kubo`, e-folding truncation plus a fitted
   exponential tail; validated on Ornstein-Uhlenbeck walkers in benchmarks/bench_estimator.py),
   with a jackknife standard error over the record's particle groups.  Published intervals use
   the seeds as the independent units: a Student-t interval over per-seed values or per-seed
@@ -19,7 +19,7 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
 * **Sequential design.**  A group with ``target = {case, halfwidth, batch}`` and ``max_seeds``
   starts with its ``seeds``; whenever all its runs are finished, the 95 % half-width of the
   paired relative difference D_case / D_exact - 1 over seeds is compared with ``halfwidth``
-  (:func:`studies.estimators.sequential_status`: a rule on the spread, never on the mean), and
+  (:func:`studies.sequential.sequential_status`: a rule on the spread, never on the mean), and
   ``batch`` more seeds are added until the target is met, ``max_seeds`` is reached, or the
   spec's ``study.budget_cpu_hours`` is spent.  The added seeds follow from the records alone, so
   a stopped study resumes the same design on any machine.
@@ -30,7 +30,7 @@ import json
 
 import numpy as np
 
-from . import estimators as est
+from . import diffusion, equilibration, intervals, sequential
 from . import reduce as red
 from . import spec as S
 
@@ -59,7 +59,7 @@ def analysis_cut(rec, t_eq):
         return cuts[0], None
     e = rec["energy"]
     tr, ro = np.asarray(e["e_trans"]), np.asarray(e["e_rot"])
-    det = est.detect_equilibration(np.asarray(e["t"]), ro / (tr + ro), equipartition_share(rec))
+    det = equilibration.detect_equilibration(np.asarray(e["t"]), ro / (tr + ro), equipartition_share(rec))
     t_det = det["t_cut"]
     if not np.isfinite(t_det):
         raise ValueError(f"run {rec['name']}: no equilibration cut (rotational share never settles at "
@@ -88,8 +88,8 @@ def run_d(rec, t_eq, stderr=True):
     w = window_of(rec, t_cut)
     lag = np.arange(len(w["vacf"])) * w["frame_interval"]      # the stored lags are rounded to 7 digits
     try:
-        d = est.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
-        se = est.green_kubo_stderr(lag, np.asarray(w["vacf_groups"])) if stderr else None
+        d = diffusion.diffusion_green_kubo(lag, np.asarray(w["vacf"]))
+        se = diffusion.green_kubo_stderr(lag, np.asarray(w["vacf_groups"])) if stderr else None
     except ValueError as e:
         raise ValueError(f"run {rec['name']}: no Green-Kubo D from the window at {t_cut} s: {e}") from None
     return {"D": float(d), "D_stderr": None if se is None else float(se), "t_cut": t_cut, "t_cut_detected": detected}
@@ -169,7 +169,7 @@ def plan(spec, rdir, recs=None):
             runs = _sequential_runs(spec, gi, seeds)
             finished = all(r["key"] in recs for r in runs)
             pairs = paired_relative(recs, runs, tgt["case"], t_eq)
-            st = est.sequential_status([v for _, v in pairs], tgt["halfwidth"], max_n=g["max_seeds"])
+            st = sequential.sequential_status([v for _, v in pairs], tgt["halfwidth"], max_n=g["max_seeds"])
             st.update(case=tgt["case"], target=tgt["halfwidth"], seeds=len(seeds), finished=finished,
                       cpu_hours=spent, budget_cpu_hours=budget)
             if not finished:
@@ -391,9 +391,9 @@ def prior_projection(spec, gi, refs):
     if t <= cut:
         return None
     sd = rst["sd"] * np.sqrt((t_ref - cut) / (t - cut))
-    need = est.pairs_needed(sd, tgt["halfwidth"], est.MIN_PAIRS)
+    need = sequential.pairs_needed(sd, tgt["halfwidth"], sequential.MIN_PAIRS)
     max_n = g.get("max_seeds")
-    hw_max = None if max_n is None or max_n < 2 else float(est._tq(0.95, max_n - 1) * sd / np.sqrt(max_n))
+    hw_max = None if max_n is None or max_n < 2 else float(intervals.t_quantile(0.95, max_n - 1) * sd / np.sqrt(max_n))
     e_ref = float(rp["material"]["youngs_modulus"])
     ref_seed = max([int(r["seed"]) for r in runs] + list(rg["seeds"])) + 1     # the design's next seed
     ref_pair = pair_cost(rsp, rgi, ref_seed, rrecs)      # a new pair of the reference, at its time step
@@ -407,7 +407,7 @@ def prior_projection(spec, gi, refs):
 
 def _reference_rank(p, rp, n):
     """Sort key (larger is better) of a prior projection's reference run parameters ``rp`` with
-    ``n`` pairs for the target's parameters ``p``: a reference with at least ``est.MIN_PAIRS`` pairs
+    ``n`` pairs for the target's parameters ``p``: a reference with at least ``sequential.MIN_PAIRS`` pairs
     (its spread is a pilot's, not two pairs'), then the smallest |ln E/E_ref| (the physics nearest
     the target's), then the smallest |ln T/T_ref| (the least scaling of the spread), then the most
     pairs, then a softer reference (E_ref < E) before a stiffer one at the same distance, then a
@@ -415,7 +415,7 @@ def _reference_rank(p, rp, n):
     reference found even at a farther stiffness."""
     e, e_ref = float(p["material"]["youngs_modulus"]), float(rp["material"]["youngs_modulus"])
     t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
-    return (n >= est.MIN_PAIRS, -round(abs(float(np.log(e / e_ref))), 12), -round(abs(float(np.log(t / t_ref))), 12),
+    return (n >= sequential.MIN_PAIRS, -round(abs(float(np.log(e / e_ref))), 12), -round(abs(float(np.log(t / t_ref))), 12),
             n, e_ref <= e, t_ref >= t)
 
 

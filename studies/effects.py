@@ -240,7 +240,7 @@ def shape_name(shape):
 
 def effect_rows(specs, values=None):
     """effects.csv's rows; ``values``: :func:`paired_values` of ``specs``, if already read."""
-    from .estimators import t_interval
+    from .intervals import t_interval
 
     rows = []
     for p, case, protocol, vals, yv, ra, *_ in (paired_values(specs) if values is None else values):

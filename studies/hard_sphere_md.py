@@ -14,7 +14,7 @@ Per run (N spheres of 0.2 m at the study's number density, a uniform non-overlap
 Maxwellian velocities with zero total momentum and kinetic energy exactly 3/2 N kT, frames every
 0.25 s as the YADE runs record them, the first ``--t-eq`` s dropped):
 
-* D by the study's Green-Kubo estimator (``estimators.vacf_fft`` + ``diffusion_green_kubo`` with
+* D by the study's Green-Kubo estimator (``correlation.vacf_fft`` + ``diffusion.diffusion_green_kubo`` with
   its defaults), as the YADE runs are analysed;
 * D by the exact Green-Kubo integral to ``--max-lag`` s, <v(0) . (r(T) - r(0))> / 3 from the
   unwrapped positions (exact for piecewise-constant velocities: no quadrature, no tail model);
@@ -48,8 +48,8 @@ import time
 
 import numpy as np
 
-from . import estimators as E
-from . import kinetic as K
+from . import correlation, diffusion, intervals
+from . import kinetic
 from .gas_model import random_sequential_positions
 from .spec import ROOT
 
@@ -170,9 +170,9 @@ def one_run(seed, n=N, box=BOX, sigma=SIGMA, kT=KT, m=MASS, t_end=1000.0, t_eq=5
     and the collision rate per particle [1/s]."""
     out, coll_eq = equilibrated_run(seed, n, box, sigma, kT, m, t_end, t_eq, lib)
     pos, vel = out["pos"], out["vel"]
-    c = E.vacf_fft(vel, int(round(max_lag / FRAME_DT)))
+    c = correlation.vacf_fft(vel, int(round(max_lag / FRAME_DT)))
     lag = np.arange(c.size) * FRAME_DT
-    return dict(seed=int(seed), d_gk=E.diffusion_green_kubo(lag, c), d_exact=exact_integral(pos, vel, FRAME_DT, max_lag),
+    return dict(seed=int(seed), d_gk=diffusion.diffusion_green_kubo(lag, c), d_exact=exact_integral(pos, vel, FRAME_DT, max_lag),
                 rate=2.0 * out["n_coll"] / (n * (t_end - t_eq)), coll_eq=coll_eq,
                 kT=float(0.5 * m * np.sum(vel[0] ** 2) / (1.5 * n)))
 
@@ -205,7 +205,7 @@ def summarise(entry):
     runs = entry["per_run"]
     d_ref, se_ref, chi = entry["d_boltzmann"], entry["d_boltzmann_se"], entry["enskog_chi"]
     for key in ("d_gk", "d_exact", "rate"):
-        entry[key], _, _, entry[key + "_se"], n_ = E.t_interval([x[key] for x in runs])
+        entry[key], _, _, entry[key + "_se"], n_ = intervals.t_interval([x[key] for x in runs])
         entry[key + "_sd_per_run"] = entry[key + "_se"] * math.sqrt(n_)
     for key in ("d_gk", "d_exact"):
         se = math.hypot(entry[key + "_se"] / d_ref, entry[key] * se_ref / d_ref ** 2)
@@ -216,7 +216,7 @@ def summarise(entry):
     # the study's estimator against the exact integral on the same runs: the ratio of the means (a
     # mean of per-run ratios would carry the noisy denominator's bias, Var/mu^2 ~ 3e-4 per run at
     # N = 864), with the delta-method error of the paired differences
-    entry["gk_minus_exact"], entry["gk_minus_exact_se"] = E.ratio_of_means([x["d_gk"] for x in runs],
+    entry["gk_minus_exact"], entry["gk_minus_exact_se"] = intervals.ratio_of_means([x["d_gk"] for x in runs],
                                                                            [x["d_exact"] for x in runs])
     entry["enskog_rel"] = 1.0 / chi - 1.0
     entry["rate_rel_enskog"] = entry["rate"] / entry["rate_enskog"] - 1.0
@@ -268,12 +268,12 @@ def main(argv=None):
     entry = next((e for e in read(a.out) if all(e.get(k) == v for k, v in params.items())), None)
     if entry is None:                  # a new entry (it replaces one of the same N and other parameters)
         entry = dict(params, number_density=n_dens, volume_fraction=phi, rho_sigma3=n_dens * SIGMA ** 3,
-                     enskog_chi=K.enskog_chi(phi), per_run=[], md_cpu_s=0.0)
+                     enskog_chi=kinetic.enskog_chi(phi), per_run=[], md_cpu_s=0.0)
     if entry.get("ref_chains") != a.ref_chains:
         t1 = time.process_time()
-        d_ref, se_ref = K.d_boltzmann(n_dens, KT, MASS, SIGMA, None, n_chains=a.ref_chains, n_steps=3000, seed=a.n,
+        d_ref, se_ref = kinetic.d_boltzmann(n_dens, KT, MASS, SIGMA, None, n_chains=a.ref_chains, n_steps=3000, seed=a.n,
                                       n_particles=a.n)
-        _, _, n_partners, g_mean = K._partner_law(n_dens, KT, MASS, a.n)     # N - 1 partners, zero momentum
+        _, _, n_partners, g_mean = kinetic._partner_law(n_dens, KT, MASS, a.n)     # N - 1 partners, zero momentum
         entry.update(d_boltzmann=d_ref, d_boltzmann_se=se_ref, ref_chains=a.ref_chains,
                      ref_cpu_s=time.process_time() - t1,
                      rate_enskog=entry["enskog_chi"] * n_partners * math.pi * SIGMA ** 2 * g_mean)

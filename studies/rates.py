@@ -5,7 +5,7 @@ In a dilute gas a body's velocity autocorrelation starts as exp(-t/tau), and 1/t
 rate times the mean fractional momentum loss per collision) is set by binary collisions alone: it
 is the first Chapman-Enskog approximation, which the collision map computes from YADE collisions
 as tau x n (``relaxation_time_n``, s m^-3).  A run record gives tau from the first seconds of its
-velocity autocorrelation (:func:`studies.estimators.initial_decay_time`) and n = N / L^3.  The
+velocity autocorrelation (:func:`studies.diffusion.initial_decay_time`) and n = N / L^3.  The
 comparison needs no model of the VACF's tail, so it tests the collisions themselves, case by case:
 a D ratio that disagrees with its map can be traced to the case whose collision rate disagrees.
 
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from . import estimators as est
+from . import diffusion, intervals
 
 T_FIT = 2.0     # s of VACF fitted: 0.05-0.08 tau for these gases, 8 frames at 0.25 s
 
@@ -34,23 +34,23 @@ def run_tau(rec, t_fit=T_FIT):
     (m^2/s^2)).  C(0) tau / 3 is the run's D if its VACF is a single exponential."""
     lag, c = _vacf(rec)
     n = rec["params"]["gas"]["n_particles"] / rec["box_length"] ** 3
-    return est.initial_decay_time(lag, c, t_fit), n, float(c[0])
+    return diffusion.initial_decay_time(lag, c, t_fit), n, float(c[0])
 
 
 def run_shape_factor(rec, t_fit=T_FIT, tau=None):
     """The VACF's shape factor D / D_init of a record's first analysis window: the Green-Kubo D
-    (:func:`studies.estimators.diffusion_green_kubo`, the estimator of record) over the first-seconds
+    (:func:`studies.diffusion.diffusion_green_kubo`, the estimator of record) over the first-seconds
     D_init = C(0) tau / 3.  1 for a single-exponential VACF; how far the full D departs from the first
     Chapman-Enskog approximation that the collision map computes.  ``tau``: the record's
     :func:`run_tau` where the caller has it (else fitted here).  NaN when the window's lags are too
     short for the Green-Kubo estimator."""
     lag, c = _vacf(rec)
     try:
-        d = est.diffusion_green_kubo(lag, c)
+        d = diffusion.diffusion_green_kubo(lag, c)
     except ValueError:
         return float("nan")
     if tau is None:
-        tau = est.initial_decay_time(lag, c, t_fit)
+        tau = diffusion.initial_decay_time(lag, c, t_fit)
     return d / (float(c[0]) * tau / 3.0)
 
 
@@ -115,7 +115,7 @@ def rows(collected, maps):
             raise ValueError(f"{f} {case}/{protocol}: gas runs at different number densities {sorted(ns)}")
         n = ns.pop()
         rt = m["relaxation_time_n"][f"{case}/{protocol}"]
-        mean, lo, hi, _, k = est.t_interval(taus)
+        mean, lo, hi, _, k = intervals.t_interval(taus)
         out.append({"shape": m["shape"]["kind"], "overlap": m["shape"].get("overlap"),
                     "youngs_modulus": m["material"]["youngs_modulus"], "case": case, "protocol": protocol,
                     "map_tau": rt["value"] / n, "map_tau_se": rt["se"] / n, "gas_tau": mean, "gas_ci_low": lo,
@@ -154,8 +154,8 @@ def ratio_rows(collected, maps):
         mrow = next((r for r in by_file[f]["rows"] if r["case"] == case and r["protocol"] == protocol), None)
         if not vals or mrow is None:
             continue
-        mean, lo, hi, _, k = est.t_interval(vals)
-        s_mean, s_lo, s_hi, _, s_k = est.t_interval(shape)
+        mean, lo, hi, _, k = intervals.t_interval(vals)
+        s_mean, s_lo, s_hi, _, s_k = intervals.t_interval(shape)
         m = by_file[f]
         out.append({"shape": m["shape"]["kind"], "overlap": m["shape"].get("overlap"),
                     "youngs_modulus": m["material"]["youngs_modulus"], "case": case, "protocol": protocol,

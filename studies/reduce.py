@@ -3,9 +3,9 @@
 The reduced record holds what every analysis needs, so the raw trajectory (tens of MB) can be
 deleted: the run's checks (energy and momentum drift, finiteness), the energy partition every
 second, and for each analysis window [t_cut, t_end] the particle-averaged MSD on a log-spaced lag
-grid and the velocity autocorrelation (VACF, :func:`studies.estimators.vacf_fft`) on the frame
+grid and the velocity autocorrelation (VACF, :func:`studies.correlation.vacf_fft`) on the frame
 grid up to ``max_lag``, overall and for 8 disjoint particle groups (contiguous index blocks,
-:func:`studies.estimators.group_labels`; for per-run jackknife standard errors).  Pure numpy; no YADE, no driver.
+:func:`studies.correlation.group_labels`; for per-run jackknife standard errors).  Pure numpy; no YADE, no driver.
 """
 from __future__ import annotations
 
@@ -14,8 +14,7 @@ import os
 
 import numpy as np
 
-from .estimators import vacf_fft
-from .msd import msd_fft
+from .correlation import msd_fft, vacf_fft
 
 REDUCTION_VERSION = 1
 N_GROUPS = 8

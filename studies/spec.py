@@ -14,7 +14,6 @@ run, case, protocol, seed), :data:`MODEL_VERSION`, the YADE version and the clum
 """
 from __future__ import annotations
 
-import copy
 import hashlib
 import json
 import math
@@ -23,8 +22,9 @@ import tomllib
 
 import numpy as np
 
-from . import gas_model as gm
-from . import shapes as shp
+from . import gas_model, shapes
+from .spec_checks import (SCHEDULES, YADE_VERSIONS, SpecError, check_analysis_window,  # noqa: F401
+                          check_one_body, check_placement, check_table, check_value)
 
 # Bump when the physics of a run changes (what the YADE script builds, records or integrates,
 # or how initial conditions are drawn).  Part of every run key.
@@ -32,11 +32,6 @@ MODEL_VERSION = 2
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SPEC_DIR = os.path.join(ROOT, "studies", "specs")
-YADE_VERSIONS = ("2023.02a", "2025.2")
-
-
-class SpecError(ValueError):
-    """A bad study spec; the message names the key (``table.key``) and the file."""
 
 
 _NUM = (int, float)
@@ -78,85 +73,8 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
-# [study] schedule: the order runs are queued in.  "in_order": group by group, seed by seed, so a
-# sequential group's added seeds go before every later group's runs (the spec's groups in order of
-# importance).  "round_robin": every group's k-th seed before any group's (k+1)-th, so a study
-# stopped by its budget or by the machine going down holds an interval for every group (independent questions
-# of similar importance).  Not part of any run key.
-SCHEDULES = ("in_order", "round_robin")
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
              "start": "gas", "energy_per_particle": "gas", "n_particles": "gas"}
-
-
-def _flat(typ):
-    out = []
-    for t in (typ if isinstance(typ, tuple) else (typ,)):
-        out.extend(_flat(t) if isinstance(t, tuple) else [t])
-    return tuple(out)
-
-
-def _check_value(where, v, typ, check):
-    if (isinstance(v, bool) and bool not in _flat(typ)) or not isinstance(v, _flat(typ)):
-        raise SpecError(f"{where}: expected {_tname(typ)}, got {v!r}")
-    if isinstance(v, float) and not math.isfinite(v):
-        raise SpecError(f"{where}: must be finite, got {v!r}")
-    num = isinstance(v, (int, float)) and not isinstance(v, bool)
-    if check == "pos" and num and not v > 0:
-        raise SpecError(f"{where}: must be > 0, got {v!r}")
-    if check == "nonneg" and num and not v >= 0:
-        raise SpecError(f"{where}: must be >= 0, got {v!r}")
-    if check == "frac" and not 0 < v < 1:
-        raise SpecError(f"{where}: must be in (0, 1), got {v!r}")
-    if check == "poisson" and not -1 < v < 0.5:
-        raise SpecError(f"{where}: must be in (-1, 0.5), got {v!r}")
-    if check == "yade" and v not in YADE_VERSIONS:
-        raise SpecError(f"{where}: YADE version must be one of {', '.join(YADE_VERSIONS)}, got {v!r}")
-    if check == "spin_pairing" and v not in gm.SPIN_PAIRINGS:
-        raise SpecError(f"{where}: unknown spin pairing {v!r} (known: {', '.join(gm.SPIN_PAIRINGS)})")
-    if check == "start" and v not in gm.STARTS:
-        raise SpecError(f"{where}: must be one of {', '.join(gm.STARTS)}, got {v!r}")
-    if check == "protocol" and v not in gm.PROTOCOLS:
-        raise SpecError(f"{where}: must be one of {', '.join(gm.PROTOCOLS)}, got {v!r}")
-    if check == "kind" and v not in shp.KINDS:
-        raise SpecError(f"{where}: must be one of {', '.join(shp.KINDS)}, got {v!r}")
-    if check == "schedule" and v not in SCHEDULES:
-        raise SpecError(f"{where}: must be one of {', '.join(SCHEDULES)}, got {v!r}")
-    if check == "smass" and v not in ("exact", "density"):
-        raise SpecError(f"{where}: must be 'exact' (the exact clump mass) or 'density', got {v!r}")
-    if check == "diameter":
-        if isinstance(v, str) and v != "equal_volume":
-            raise SpecError(f"{where}: must be a diameter in m or 'equal_volume', got {v!r}")
-        if num and not v > 0:
-            raise SpecError(f"{where}: must be > 0, got {v!r}")
-    if check == "t_eq":
-        if isinstance(v, str) and v != "auto":
-            raise SpecError(f"{where}: must be a time in s or 'auto', got {v!r}")
-        if num and not v >= 0:
-            raise SpecError(f"{where}: must be >= 0, got {v!r}")
-
-
-def _tname(typ):
-    names = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a table"}
-    ts = _flat(typ)
-    return " or ".join(dict.fromkeys(names[t] for t in ts if not (t is int and float in ts)))
-
-
-def _table(where, d, keys):
-    if not isinstance(d, dict):
-        raise SpecError(f"{where}: expected a table, got {d!r}")
-    for k in d:
-        if k not in keys:
-            raise SpecError(f"{where}.{k}: unknown key (known: {', '.join(keys)})")
-    out = {}
-    for k, (typ, req, default, check) in keys.items():
-        if k not in d:
-            if req:
-                raise SpecError(f"{where}.{k}: missing")
-            out[k] = copy.deepcopy(default)
-            continue
-        _check_value(f"{where}.{k}", d[k], typ, check)
-        out[k] = d[k]
-    return out
 
 
 def analysis_windows(spec):
@@ -194,33 +112,13 @@ def load(path):
     return spec
 
 
-def validate(raw):
-    """Validate a parsed spec (dict); returns it completed with defaults.  Raises SpecError."""
-    known = set(SCHEMA) | {"shapes", "groups"}
-    for k in raw:
-        if k not in known:
-            raise SpecError(f"{k}: unknown table (known: {', '.join(sorted(known))})")
-    spec = {}
-    for t, keys in SCHEMA.items():
-        if t not in raw and t not in ("spheres", "run", "analysis"):
-            raise SpecError(f"{t}: missing table")
-        spec[t] = _table(t, raw.get(t, {}), keys)
-    if spec["run"]["legacy_dt"] is not None:
-        spec["run"]["legacy_dt"] = _table("run.legacy_dt", spec["run"]["legacy_dt"], LEGACY_DT_KEYS)
-    a = spec["analysis"]
-    for i, c in enumerate(a["cuts"]):
-        _check_value(f"analysis.cuts[{i}]", c, _NUM, "nonneg")
-    for i, s in enumerate(a["sensitivity"]):
-        if not (isinstance(s, list) and len(s) == 3):
-            raise SpecError(f"analysis.sensitivity[{i}]: expected [t_eq, fit_lo, fit_hi], got {s!r}")
-        for j, v in enumerate(s):
-            _check_value(f"analysis.sensitivity[{i}][{j}]", v, _NUM, "nonneg")
-    shapes = raw.get("shapes")
-    if not isinstance(shapes, dict) or not shapes:
+def _validate_shapes(shapes_table):
+    """The ``[shapes.NAME]`` tables, each checked for its kind's keys and for being one body."""
+    if not isinstance(shapes_table, dict) or not shapes_table:
         raise SpecError("shapes: missing (one [shapes.NAME] table per shape)")
-    spec["shapes"] = {}
-    for name, s in shapes.items():
-        sd = _table(f"shapes.{name}", s, SHAPE_KEYS)
+    out = {}
+    for name, s in shapes_table.items():
+        sd = check_table(f"shapes.{name}", s, SHAPE_KEYS)
         need = ("path",) if sd["kind"] == "file" else ("sphere_diameter", "overlap")
         for k in need:
             if sd[k] is None:
@@ -231,52 +129,83 @@ def validate(raw):
             raise SpecError(f"shapes.{name}.{extra[0]}: not used by kind = {sd['kind']!r}")
         sd = {k: v for k, v in sd.items() if v is not None and not (k == "scale" and sd["kind"] != "file")}
         try:
-            centers, radii = shp.raw_members(sd)
+            centers, radii = shapes.raw_members(sd)
         except (ValueError, OSError) as e:
             raise SpecError(f"shapes.{name}: {e}") from None
-        _check_one_body(f"shapes.{name}", sd, centers, radii)
-        spec["shapes"][name] = sd
+        check_one_body(f"shapes.{name}", sd, centers, radii)
+        out[name] = sd
+    return out
+
+
+def _group_list(raw):
     groups = raw.get("groups")
     if not isinstance(groups, list) or not groups:
         raise SpecError("groups: missing (one [[groups]] table per group of runs)")
-    spec["groups"] = []
-    for i, g in enumerate(groups):
-        where = f"groups[{i}]"
-        gd = _table(where, g, GROUP_KEYS)
-        if gd["shape"] not in spec["shapes"]:
-            raise SpecError(f"{where}.shape: unknown shape {gd['shape']!r} (defined: {', '.join(spec['shapes'])})")
-        if not gd["cases"]:
-            raise SpecError(f"{where}.cases: empty")
-        for j, c in enumerate(gd["cases"]):
-            if c not in gm.CASES:
-                raise SpecError(f"{where}.cases[{j}]: unknown case {c!r} (known: {', '.join(gm.CASES)})")
-        if not gd["seeds"]:
-            raise SpecError(f"{where}.seeds: empty")
-        for j, s in enumerate(gd["seeds"]):
-            if isinstance(s, bool) or not isinstance(s, int) or s < 0:
-                raise SpecError(f"{where}.seeds[{j}]: expected a non-negative integer, got {s!r}")
-        if gd["target"] is not None:
-            t = _table(f"{where}.target", gd["target"],
-                       {"case": (str, True, None, None), "halfwidth": (_NUM, True, None, "pos"),
-                        "batch": (int, False, 2, "pos")})
-            if t["case"] not in gd["cases"] or "exact" not in gd["cases"]:
-                raise SpecError(f"{where}.target.case: {t['case']!r} and 'exact' must both be in {where}.cases")
-            gd["target"] = t
-            if gd["max_seeds"] is None:
-                raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
-        props = shp.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
-        if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
-            raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
-                            f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
-                            f"integrator, which gains energy; set study.yade = '2025.2'")
-        spec["groups"].append(gd)
+    return groups
+
+
+def _validate_group(where, g, spec):
+    """One ``[[groups]]`` table (``where``: its name in messages), checked against the spec's shapes and YADE."""
+    gd = check_table(where, g, GROUP_KEYS)
+    if gd["shape"] not in spec["shapes"]:
+        raise SpecError(f"{where}.shape: unknown shape {gd['shape']!r} (defined: {', '.join(spec['shapes'])})")
+    if not gd["cases"]:
+        raise SpecError(f"{where}.cases: empty")
+    for j, c in enumerate(gd["cases"]):
+        if c not in gas_model.CASES:
+            raise SpecError(f"{where}.cases[{j}]: unknown case {c!r} (known: {', '.join(gas_model.CASES)})")
+    if not gd["seeds"]:
+        raise SpecError(f"{where}.seeds: empty")
+    for j, s in enumerate(gd["seeds"]):
+        if isinstance(s, bool) or not isinstance(s, int) or s < 0:
+            raise SpecError(f"{where}.seeds[{j}]: expected a non-negative integer, got {s!r}")
+    if gd["target"] is not None:
+        t = check_table(f"{where}.target", gd["target"],
+                        {"case": (str, True, None, None), "halfwidth": (_NUM, True, None, "pos"),
+                         "batch": (int, False, 2, "pos")})
+        if t["case"] not in gd["cases"] or "exact" not in gd["cases"]:
+            raise SpecError(f"{where}.target.case: {t['case']!r} and 'exact' must both be in {where}.cases")
+        gd["target"] = t
+        if gd["max_seeds"] is None:
+            raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
+    props = shapes.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
+    if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
+        raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
+                        f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
+                        f"integrator, which gains energy; set study.yade = '2025.2'")
+    return gd
+
+
+def validate(raw):
+    """Validate a parsed spec (dict); returns it completed with defaults.  Raises SpecError."""
+    known = set(SCHEMA) | {"shapes", "groups"}
+    for k in raw:
+        if k not in known:
+            raise SpecError(f"{k}: unknown table (known: {', '.join(sorted(known))})")
+    spec = {}
+    for t, keys in SCHEMA.items():
+        if t not in raw and t not in ("spheres", "run", "analysis"):
+            raise SpecError(f"{t}: missing table")
+        spec[t] = check_table(t, raw.get(t, {}), keys)
+    if spec["run"]["legacy_dt"] is not None:
+        spec["run"]["legacy_dt"] = check_table("run.legacy_dt", spec["run"]["legacy_dt"], LEGACY_DT_KEYS)
+    a = spec["analysis"]
+    for i, c in enumerate(a["cuts"]):
+        check_value(f"analysis.cuts[{i}]", c, _NUM, "nonneg")
+    for i, s in enumerate(a["sensitivity"]):
+        if not (isinstance(s, list) and len(s) == 3):
+            raise SpecError(f"analysis.sensitivity[{i}]: expected [t_eq, fit_lo, fit_hi], got {s!r}")
+        for j, v in enumerate(s):
+            check_value(f"analysis.sensitivity[{i}][{j}]", v, _NUM, "nonneg")
+    spec["shapes"] = _validate_shapes(raw.get("shapes"))
+    spec["groups"] = [_validate_group(f"groups[{i}]", g, spec) for i, g in enumerate(_group_list(raw))]
     physics_defaults(spec)
     a = spec["analysis"]
     if a["fit_hi"] <= a["fit_lo"]:
         raise SpecError(f"analysis.fit_hi: must be > analysis.fit_lo ({a['fit_lo']}), got {a['fit_hi']}")
     for i, gd in enumerate(spec["groups"]):
-        _check_placement(f"groups[{i}]", spec, gd)
-        _check_analysis_window(f"groups[{i}]", spec, gd)
+        check_placement(f"groups[{i}]", spec, gd, group_tables(spec, gd))
+        check_analysis_window(f"groups[{i}]", spec, gd, group_tables(spec, gd))
     return spec
 
 
@@ -289,7 +218,7 @@ def velocity_correlation_time(spec, g):
     from .kinetic import d_hard_spheres_first
 
     mat, gas, _ = group_tables(spec, g)
-    props = shp.properties(spec["shapes"][g["shape"]], mat["density"])
+    props = shapes.properties(spec["shapes"][g["shape"]], mat["density"])
     m, vol = props["exact"]["mass"], props["exact"]["volume"]
     sigma = (6.0 * vol / math.pi) ** (1.0 / 3.0)
     n = float(gas["volume_fraction"]) / vol                  # particles per m^3 (box^3 = N vol / phi)
@@ -323,72 +252,6 @@ def physics_defaults(spec):
     spec["derived"] = dict(derived, tau_v=tau)
 
 
-def _check_one_body(where, shape, centers, radii):
-    """A clump must be one rigid body: every sphere overlaps the others in one connected set, and
-    none is coincident with or inside another (it would add nothing to the union and its mass
-    twice to the sum)."""
-    d = np.linalg.norm(centers[:, None] - centers[None], axis=2)
-    scale = float(np.max(radii))
-    inside = d + radii[:, None] <= radii[None] + 1e-12 * scale
-    np.fill_diagonal(inside, False)
-    if inside.any():
-        i, j = np.argwhere(inside)[0]
-        raise SpecError(f"{where}: sphere {i} is coincident with or inside sphere {j}; remove it")
-    touching = d <= (radii[:, None] + radii[None]) * (1 + 1e-12)        # overlapping or touching
-    reached, todo = {0}, [0]
-    while todo:
-        for j in np.flatnonzero(touching[todo.pop()]):
-            if int(j) not in reached:
-                reached.add(int(j))
-                todo.append(int(j))
-    if len(reached) < len(radii):
-        hint = (" (overlap = D/d_s must be < 1 for the spheres to overlap)" if shape["kind"] != "file" else
-                f" (is the file in metres? scale = {shape.get('scale', 1.0)})")
-        raise SpecError(f"{where}: the spheres do not form one body: sphere {min(set(range(len(radii))) - reached)} "
-                        f"overlaps none of the spheres connected to sphere 0{hint}")
-
-
-# random sequential addition (studies.gas_model.random_sequential_positions) of the bounding spheres
-# reaches this share of the box within its 1000 n tries (its jamming limit is 0.38)
-PLACEMENT_LIMIT = 0.25
-
-
-def _check_placement(where, spec, g):
-    """The gas of group ``g`` can be placed: its particles' bounding spheres (plus the start's gap)
-    fill at most :data:`PLACEMENT_LIMIT` of the box."""
-    mat, gas, _ = group_tables(spec, g)
-    props = shp.properties(spec["shapes"][g["shape"]], mat["density"])
-    spheres = dict(spec["spheres"], density=mat["density"])
-    rb = max([shp.bounding_radius(spec["shapes"][g["shape"]], mat["density"])] +
-             [gm.resolve_case(props, c, spheres).get("radius", 0.0) for c in g["cases"]])
-    n, phi = int(gas["n_particles"]), float(gas["volume_fraction"])
-    box = gm.box_length(n, props["exact"]["volume"], phi)
-    filled = n * math.pi / 6 * (2 * rb + gm.PLACEMENT_GAP) ** 3 / box ** 3
-    if filled > PLACEMENT_LIMIT:
-        raise SpecError(f"{where}: gas.volume_fraction = {phi:g} cannot be placed: the particles' bounding spheres "
-                        f"would fill {filled:.2f} of the box and random placement reaches {PLACEMENT_LIMIT}; "
-                        f"use volume_fraction <= {phi * PLACEMENT_LIMIT / filled:.3g}")
-
-
-def _check_analysis_window(where, spec, g):
-    """The analysis fits the run: t_eq, the cuts, the MSD fit window and the VACF lags inside the
-    run length of group ``g``."""
-    _, _, run = group_tables(spec, g)
-    a, t_end = spec["analysis"], float(run["t_end"])
-    t_eq = a["t_eq"] if not isinstance(a["t_eq"], str) else 0.0
-    start = max([t_eq] + list(a["cuts"]) + [float(s[0]) for s in a["sensitivity"]])
-    if start > t_end - 3 * float(run["rec_interval"]):          # a window of fewer than 4 frames is never stored
-        key = ("analysis.t_eq" if t_eq >= start else "analysis.cuts" if start in a["cuts"]
-               else "analysis.sensitivity")
-        raise SpecError(f"{where}: {key} = {start:g} s is too close to the end of the run (t_end = {t_end:g} s; "
-                        f"a window needs 4 recorded frames)")
-    window = t_end - start
-    for key in ("max_lag", "fit_hi"):
-        if a[key] >= window:
-            raise SpecError(f"{where}: analysis.{key} = {a[key]:g} s does not fit the analysed window of "
-                            f"{window:g} s (t_end {t_end:g} s from t = {start:g} s): lengthen the run or shorten the lags")
-
-
 def group_tables(spec, g):
     """(material, gas, run) tables of group ``g``: the spec's, with the group's overrides
     (:data:`OVERRIDES`) applied; copies, the spec is not changed."""
@@ -412,10 +275,10 @@ def resolve_run(spec, g, case, seed):
         # D moves by 3e-4 between factors 0.5 and 1.0, so a paired ratio by at most 6e-4).
         run["dt_factor"] = legacy["dt_factor"]
     shape = spec["shapes"][g["shape"]]
-    props = shp.properties(shape, mat["density"])
+    props = shapes.properties(shape, mat["density"])
     spheres = dict(spec["spheres"], density=mat["density"])
-    cres = gm.resolve_case(props, case, spheres)
-    protocol = gm.effective_protocol(cres, props["exact"]["mass"], g["protocol"])
+    cres = gas_model.resolve_case(props, case, spheres)
+    protocol = gas_model.effective_protocol(cres, props["exact"]["mass"], g["protocol"])
     spin_pairing = gas.pop("spin_pairing", "same")
     p = {
         "model_version": MODEL_VERSION,
@@ -455,7 +318,7 @@ def spin_pairing_of(params):
         return None
     if params["protocol"] == "paired":
         return "same"
-    linear = shp.properties(params["shape"]["definition"], params["material"]["density"])["linear"]
+    linear = shapes.properties(params["shape"]["definition"], params["material"]["density"])["linear"]
     return None if linear else "same"
 
 
@@ -494,7 +357,7 @@ def time_step(params, props=None):
     ``props``: :func:`studies.shapes.properties` of the shape, if already computed."""
     mat = params["material"]
     if props is None:
-        props = shp.properties(params["shape"]["definition"], mat["density"])
+        props = shapes.properties(params["shape"]["definition"], mat["density"])
     return params["run"]["dt_factor"] * min(props["radii"]) * math.sqrt(mat["density"] / mat["youngs_modulus"])
 
 
@@ -504,15 +367,15 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     p = params if params is not None else spec_or_params
     mat, gas, run = p["material"], p["gas"], p["run"]
     shape = p["shape"]["definition"]
-    props = shp.properties(shape, mat["density"])
+    props = shapes.properties(shape, mat["density"])
     spheres = dict(p.get("spheres", {}), density=mat["density"])
-    cres = gm.resolve_case(props, p["case"], spheres)
+    cres = gas_model.resolve_case(props, p["case"], spheres)
     ex = props["exact"]
     n = int(gas["n_particles"])
-    box = gm.box_length(n, ex["volume"], gas["volume_fraction"])
-    rb = max(shp.bounding_radius(shape, mat["density"]), cres.get("radius", 0.0))
+    box = gas_model.box_length(n, ex["volume"], gas["volume_fraction"])
+    rb = max(shapes.bounding_radius(shape, mat["density"]), cres.get("radius", 0.0))
     case_tensor = np.asarray(props[cres["inertia_source"] or "exact"]["inertia"])
-    pos, ori, vel, angvel = gm.initial_state(
+    pos, ori, vel, angvel = gas_model.initial_state(
         p["seed"], n, box, rb, cres, ex["mass"], np.asarray(ex["inertia"]), case_tensor, p["protocol"],
         gas["energy_per_particle"], gas["start"], props["linear"], spin_pairing=gas.get("spin_pairing", "same"))
     dt = time_step(p, props)

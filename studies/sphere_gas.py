@@ -16,7 +16,7 @@ m, sigma, E and nu: hard spheres and Hertz spheres, first Chapman-Enskog approxi
 full linear Boltzmann solution, each divided by the Enskog factor.  ``ratio_hertz`` is
 D_measured / D_Hertz,Boltzmann with a 95 % Fieller interval that carries both errors: the runs'
 Student-t mean and the prediction's own Monte Carlo error (``d_hertz_boltzmann_se``, ~0.04 %
-over the default 16,000 independent chains, ~0.1 % over 2,000; :func:`studies.estimators.fieller_from_means` with the
+over the default 16,000 independent chains, ~0.1 % over 2,000; :func:`studies.intervals.fieller_from_means` with the
 runs' n - 1 dof, whose coverage is tested; ignoring the theory's error covered 91.8 % at the
 1e7 Pa gas's sizes).
 ``dt_effect`` is the relative change of D that the runs' time step ``dt`` [s] makes
@@ -42,10 +42,10 @@ import numpy as np
 from scipy import stats
 
 from . import design, kinetic
-from . import spec as S
-from .estimators import fieller_from_means, t_interval
+from . import spec as study_spec
+from .intervals import fieller_from_means, t_interval
 
-RESULTS = os.path.join(S.ROOT, "results")
+RESULTS = os.path.join(study_spec.ROOT, "results")
 COLUMNS = ("source", "youngs_modulus", "poisson", "estimator", "n_runs", "D", "ci_low", "ci_high", "stderr", "kT",
            "n_particles", "box_length", "diameter", "mass", "number_density", "volume_fraction",
            "enskog_chi", "d_hard_first", "d_hard_boltzmann", "d_hard_boltzmann_se", "d_hertz_first",
@@ -66,7 +66,7 @@ def gases_from_records(specs):
     """One entry per sphere gas found in the specs' finished, passing records."""
     groups = {}
     for sp in specs:
-        rdir = S.results_dir(sp)
+        rdir = study_spec.results_dir(sp)
         if not os.path.isdir(rdir):
             continue
         for rec in design.load_records(sp, rdir).values():
@@ -76,7 +76,7 @@ def gases_from_records(specs):
             gas = dict(n_particles=p["gas"]["n_particles"], box_length=rec["box_length"],
                        diameter=2.0 * body["radius"], mass=body["mass"],
                        youngs_modulus=p["material"]["youngs_modulus"], poisson=p["material"]["poisson"],
-                       dt=rec["facts"].get("dt") or S.time_step(p))     # the step the run used
+                       dt=rec["facts"].get("dt") or study_spec.time_step(p))     # the step the run used
             g = design.run_d(rec, sp["analysis"]["t_eq"])
             key = (sp["study"]["name"],) + tuple(sorted(gas.items()))
             entry = groups.setdefault(key, {"source": f"{sp['study']['name']} (Green-Kubo)", "gas": gas,
@@ -103,7 +103,7 @@ def gas_from_first_version(path=os.path.join(RESULTS, "granular_gas")):
         return None
     if "spheres" not in summ.index:
         return None
-    paper = S.load(os.path.join(S.SPEC_DIR, "paper.toml"))
+    paper = study_spec.load(os.path.join(study_spec.SPEC_DIR, "paper.toml"))
     e = energy[(energy["case"] == "spheres") & (energy["t"] >= params["t_eq"])]
     body = params["case_properties"]["spheres"]
     row = summ.loc["spheres"]
@@ -183,10 +183,10 @@ def main(argv=None):
     log = lambda s: print(s, file=sys.stderr)   # noqa: E731
     if a.spec:
         try:
-            specs = [S.load(p) for p in a.spec]
-        except (OSError, S.SpecError) as e:
+            specs = [study_spec.load(p) for p in a.spec]
+        except (OSError, study_spec.SpecError) as e:
             ap.exit(2, f"sphere_gas: {e}\n")
-        out = a.out or os.path.join(S.results_dir(specs[0]), "sphere_gas.csv")
+        out = a.out or os.path.join(study_spec.results_dir(specs[0]), "sphere_gas.csv")
         rs = rows(specs, log=log, first_version=False)
         if not rs:
             ap.exit(1, f"sphere_gas: no finished sphere runs in {', '.join(a.spec)}: nothing written\n")

@@ -1,4 +1,4 @@
-"""studies.estimators: VACF, Green-Kubo D with jackknife errors, OLS, equilibration, sequential design.
+"""studies.correlation, diffusion, intervals, synthetic, equilibration, sequential: VACF, Green-Kubo D with jackknife errors, OLS, equilibration, sequential design.
 
 Synthetic data with known answers (Ornstein-Uhlenbeck walkers, a relaxing energy share with
 correlated noise), fixed seeds.  The statistical checks run a scaled-down gas (128 walkers,
@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from studies import estimators as E
-from studies.msd import msd_fft
+from studies import correlation, diffusion, equilibration, intervals, sequential, synthetic
 
 # ---- VACF and MSD by FFT against the definitions -------------------------------------
 
@@ -26,43 +25,43 @@ from studies.msd import msd_fft
 def test_vacf_fft_equals_bruteforce(T, N, L):
     rng = np.random.default_rng(T + 7 * N)
     v = rng.normal(size=(T, N, 3)) + rng.normal(size=(1, N, 3))
-    np.testing.assert_allclose(E.vacf_fft(v, L), E.vacf_bruteforce(v, L), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(correlation.vacf_fft(v, L), correlation.vacf_bruteforce(v, L), rtol=1e-10, atol=1e-12)
 
 
 def test_vacf_groups_equal_bruteforce_per_group_and_weighted_mean():
     rng = np.random.default_rng(11)
     T, N, G = 120, 37, 5                      # unequal groups (8, 8, 7, 7, 7)
     v = rng.normal(size=(T, N, 3))
-    c, cg = E.vacf_fft(v, 40, groups=G)
-    labels = E.group_labels(N, G)
+    c, cg = correlation.vacf_fft(v, 40, groups=G)
+    labels = correlation.group_labels(N, G)
     assert cg.shape == (G, 41)
     for g in range(G):
-        np.testing.assert_allclose(cg[g], E.vacf_bruteforce(v[:, labels == g], 40), rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(cg[g], correlation.vacf_bruteforce(v[:, labels == g], 40), rtol=1e-10, atol=1e-12)
     w = np.bincount(labels)
     np.testing.assert_allclose(c, w @ cg / N, rtol=1e-12)
     # a wrong grouping gives different group VACFs (the comparison can fail)
-    _, cg2 = E.vacf_fft(v, 40, groups=np.arange(N) % G)
+    _, cg2 = correlation.vacf_fft(v, 40, groups=np.arange(N) % G)
     assert not np.allclose(cg, cg2)
 
 
-def test_msd_fft_groups_equals_msd_fft():
+def test_msd_fft_groups_equal_the_definition_per_group():
     rng = np.random.default_rng(3)
     x = np.cumsum(rng.normal(size=(400, 20, 3)), axis=0) + 100.0
-    m, mg = E.msd_fft_groups(x, 150, groups=4)
-    ref = msd_fft(x, per_particle=True)[:151]
-    np.testing.assert_allclose(m, ref.mean(axis=1), rtol=1e-9, atol=1e-9)
+    m, mg = correlation.msd_fft(x, 150, groups=4)
+    assert m.shape == (151,) and mg.shape == (4, 151)
+    np.testing.assert_allclose(m, correlation.msd_bruteforce(x)[:151], rtol=1e-9, atol=1e-9)
     for g, idx in enumerate(np.array_split(np.arange(20), 4)):
-        np.testing.assert_allclose(mg[g], ref[:, idx].mean(axis=1), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(mg[g], correlation.msd_bruteforce(x[:, idx])[:151], rtol=1e-9, atol=1e-9)
 
 
 def test_ou_walkers_have_the_exact_vacf_and_msd():
     tau, sv, dt = 4.0, 1.3, 0.25
     rng = np.random.default_rng(5)
-    v, x = E.simulate_ou(rng, 2000, 401, dt, tau, sv)
+    v, x = synthetic.simulate_ou(rng, 2000, 401, dt, tau, sv)
     lag = np.arange(61) * dt
-    c = E.vacf_fft(v, 60)
+    c = correlation.vacf_fft(v, 60)
     np.testing.assert_allclose(c, 3 * sv ** 2 * np.exp(-lag / tau), atol=0.03 * 3 * sv ** 2)
-    m = E.msd_fft_groups(x, 60)
+    m = correlation.msd_fft(x, 60)
     exact = 6 * sv ** 2 * tau * (lag - tau * (1 - np.exp(-lag / tau)))
     np.testing.assert_allclose(m[1:], exact[1:], rtol=0.05)
 
@@ -75,7 +74,7 @@ def test_green_kubo_exact_on_a_noise_free_exponential(c_trunc, dt):
     tau = 25.0
     lag = np.arange(int(150 / dt) + 1) * dt
     vacf = 3 * 0.629 * np.exp(-lag / tau)
-    r = E.diffusion_green_kubo(lag, vacf, c_trunc=c_trunc, full_output=True)
+    r = diffusion.diffusion_green_kubo(lag, vacf, c_trunc=c_trunc, full_output=True)
     assert r["tau_hat"] == pytest.approx(tau, rel=1e-4)
     assert r["D"] == pytest.approx(0.629 * tau, rel=1e-4)
     assert r["tau_tail"] == pytest.approx(tau, rel=1e-4)
@@ -86,9 +85,9 @@ def test_green_kubo_exact_on_a_noise_free_exponential(c_trunc, dt):
 def test_green_kubo_rejects_a_vacf_that_does_not_decay():
     lag = np.arange(100) * 0.25
     with pytest.raises(ValueError, match="decay"):
-        E.diffusion_green_kubo(lag, np.ones(100))
+        diffusion.diffusion_green_kubo(lag, np.ones(100))
     with pytest.raises(ValueError, match="evenly"):
-        E.diffusion_green_kubo(np.r_[0.0, 0.3, np.arange(2, 100) * 0.25], np.exp(-np.arange(100) / 4.0))
+        diffusion.diffusion_green_kubo(np.r_[0.0, 0.3, np.arange(2, 100) * 0.25], np.exp(-np.arange(100) / 4.0))
 
 
 def _scaled_gas_replicas(n_rep, seed, n=128, tau=5.0, dt=0.25, run_tau=16.0, sv=0.8):
@@ -99,10 +98,10 @@ def _scaled_gas_replicas(n_rep, seed, n=128, tau=5.0, dt=0.25, run_tau=16.0, sv=
     out = np.empty((n_rep, 3))
     for r in range(n_rep):
         rng = np.random.default_rng([seed, r])
-        v, _ = E.simulate_ou(rng, n, T, dt, tau, sv, positions=False)
-        c, cg = E.vacf_fft(v, L, groups=16)
-        d, lo, hi, se = E.green_kubo_interval(lag, c, cg)
-        k = int(round(E.correlation_time(lag, c) / dt))
+        v, _ = synthetic.simulate_ou(rng, n, T, dt, tau, sv, positions=False)
+        c, cg = correlation.vacf_fft(v, L, groups=16)
+        d, lo, hi, se = diffusion.green_kubo_interval(lag, c, cg)
+        k = int(round(diffusion.correlation_time(lag, c) / dt))
         naive = (np.sum(c[:k + 1]) - 0.5 * (c[0] + c[k])) * dt / 3    # integral to tau_hat, no tail
         out[r] = d, se, naive
     return out, sv ** 2 * tau
@@ -132,9 +131,9 @@ def test_jackknife_stderr_scales_like_one_over_sqrt_particles():
     for n in (64, 256):
         s = []
         for r in range(30):
-            v, _ = E.simulate_ou(np.random.default_rng([n, r]), n, T, dt, tau, 1.0, positions=False)
-            _, cg = E.vacf_fft(v, 120, groups=16)
-            s.append(E.green_kubo_stderr(lag, cg))
+            v, _ = synthetic.simulate_ou(np.random.default_rng([n, r]), n, T, dt, tau, 1.0, positions=False)
+            _, cg = correlation.vacf_fft(v, 120, groups=16)
+            s.append(diffusion.green_kubo_stderr(lag, cg))
         ses.append(np.mean(s))
     assert ses[0] / ses[1] == pytest.approx(2.0, rel=0.15)
 
@@ -153,9 +152,9 @@ def test_ols_msd_is_the_least_squares_slope_over_6():
     lag = np.arange(801) * 0.25
     msd = 90.0 * lag + 50 * np.sin(lag / 7) + rng.normal(0, 20, lag.size)
     for lo, hi in [(60, 100), (125, 175), (5, 9)]:
-        assert E.ols_msd(lag, msd, lo, hi) == pytest.approx(fit_d(lag, msd, lo, hi), rel=1e-10)
+        assert diffusion.ols_msd(lag, msd, lo, hi) == pytest.approx(fit_d(lag, msd, lo, hi), rel=1e-10)
     with pytest.raises(ValueError, match="has 0 lags"):
-        E.ols_msd(lag, msd, 300, 400)
+        diffusion.ols_msd(lag, msd, 300, 400)
 
 
 def test_ols_bias_on_the_exact_ou_msd_is_the_known_4_percent():
@@ -163,8 +162,8 @@ def test_ols_bias_on_the_exact_ou_msd_is_the_known_4_percent():
     tau, D = 25.0, 15.7
     lag = np.arange(801) * 0.25
     msd = 6 * D * (lag - tau * (1 - np.exp(-lag / tau)))
-    b60 = E.ols_msd(lag, msd, 60, 100) / D - 1
-    b125 = E.ols_msd(lag, msd, 125, 175) / D - 1
+    b60 = diffusion.ols_msd(lag, msd, 60, 100) / D - 1
+    b125 = diffusion.ols_msd(lag, msd, 125, 175) / D - 1
     assert -0.050 < b60 < -0.040
     assert -0.005 < b125 < 0
 
@@ -173,7 +172,7 @@ def test_t_interval_matches_scipy():
     from scipy import stats
 
     x = np.random.default_rng(4).normal(15, 0.6, 8)
-    m, lo, hi, se, n = E.t_interval(x)
+    m, lo, hi, se, n = intervals.t_interval(x)
     ref = stats.t.interval(0.95, 7, loc=x.mean(), scale=stats.sem(x))
     np.testing.assert_allclose([m, lo, hi, se], [x.mean(), ref[0], ref[1], stats.sem(x)], rtol=1e-12)
     assert n == 8
@@ -200,7 +199,7 @@ def test_equilibration_cut_on_the_papers_relaxation():
     cuts, oks = [], []
     for seed in range(10):
         t, y = _relaxing_share(seed)
-        r = E.detect_equilibration(t, y, 0.4)
+        r = equilibration.detect_equilibration(t, y, 0.4)
         oks.append(r["ok"])
         cuts.append(r["t_cut"])
         # after the cut the deterministic transient is within the equilibrium band
@@ -213,7 +212,7 @@ def test_equilibration_cut_on_the_papers_relaxation():
     # fast, small noise: the cut follows the deterministic crossing closely
     for seed in range(5):
         t, y = _relaxing_share(50 + seed, sd=0.002, corr=1.0)
-        r = E.detect_equilibration(t, y, 0.4)
+        r = equilibration.detect_equilibration(t, y, 0.4)
         cross = 28.4 * math.log(0.36 / r["band"])
         assert r["ok"] and cross - 15 <= r["t_cut"] <= cross + 15, (r["t_cut"], cross)
 
@@ -222,28 +221,28 @@ def test_equilibration_stationary_series_cut_early_and_wrong_target_fails():
     early = []
     for seed in range(10):
         t, y = _relaxing_share(100 + seed, amp=0.0)
-        early.append(E.detect_equilibration(t, y, 0.4)["t_cut"])
+        early.append(equilibration.detect_equilibration(t, y, 0.4)["t_cut"])
     assert np.median(early) <= 20.0, early
     t, y = _relaxing_share(7)
-    bad = E.detect_equilibration(t, y, 0.5)         # 3 rotational dof expected, 2 present
+    bad = equilibration.detect_equilibration(t, y, 0.5)         # 3 rotational dof expected, 2 present
     assert not bad["ok"] and math.isnan(bad["t_cut"])
     t, y = _relaxing_share(8, tau_relax=2000.0)     # never relaxes within the run
-    assert not E.detect_equilibration(t, y, 0.4)["ok"]
+    assert not equilibration.detect_equilibration(t, y, 0.4)["ok"]
 
 
 def test_equipartition_angular_velocities():
     rng = np.random.default_rng(1)
     I = np.array([0.0045, 0.0078, 0.0078])           # kg m^2, the paper's dimer
     kT = 1.5
-    w = E.equipartition_angular_velocities(rng, I, kT, 200000)
+    w = synthetic.equipartition_angular_velocities(rng, I, kT, 200000)
     np.testing.assert_allclose(np.mean(I * w ** 2, axis=0), kT, rtol=0.01)
-    w2 = E.equipartition_angular_velocities(rng, I, kT, 50000, inactive=[True, False, False])
+    w2 = synthetic.equipartition_angular_velocities(rng, I, kT, 50000, inactive=[True, False, False])
     assert np.all(w2[:, 0] == 0)
     np.testing.assert_allclose(np.mean(I[1:] * w2[:, 1:] ** 2, axis=0), kT, rtol=0.02)
-    w3 = E.equipartition_angular_velocities(rng, [0.0, 2.0, 2.0], kT, 1000)   # a linear clump
+    w3 = synthetic.equipartition_angular_velocities(rng, [0.0, 2.0, 2.0], kT, 1000)   # a linear clump
     assert np.all(w3[:, 0] == 0) and np.all(np.isfinite(w3))
     Ib = rng.uniform(0.1, 1.0, size=(30000, 3))
-    w4 = E.equipartition_angular_velocities(rng, Ib, kT, 30000)
+    w4 = synthetic.equipartition_angular_velocities(rng, Ib, kT, 30000)
     np.testing.assert_allclose(np.mean(Ib * w4 ** 2, axis=0), kT, rtol=0.03)
 
 
@@ -254,21 +253,21 @@ def test_sequential_status_met_and_projection():
     x = np.random.default_rng(2).normal(0.2, 1.0, 10)
     s = np.std(x, ddof=1)
     hw = stats.t.ppf(0.975, 9) * s / math.sqrt(10)
-    st = E.sequential_status(x, hw * 1.01, min_n=8)
-    assert st["met"] and st["more"] == 0 and E.next_batch(st) == 0
+    st = sequential.sequential_status(x, hw * 1.01, min_n=8)
+    assert st["met"] and st["more"] == 0 and sequential.next_batch(st) == 0
     assert st["halfwidth"] == pytest.approx(hw)
-    st = E.sequential_status(x, hw / 2, min_n=8)
+    st = sequential.sequential_status(x, hw / 2, min_n=8)
     assert not st["met"]
     n = st["n_needed"]
     assert stats.t.ppf(0.975, n - 1) * s / math.sqrt(n) <= hw / 2 < stats.t.ppf(0.975, n - 2) * s / math.sqrt(n - 1)
     assert 28 <= n <= 40                       # ~ 4x the pairs for half the width (t quantile shrinks)
     assert st["more"] == n - 10
-    k = E.next_batch(st, batch=4)
+    k = sequential.next_batch(st, batch=4)
     assert k >= st["more"] and k % 4 == 0
-    assert E.next_batch(st, batch=4, max_n=20) == 10
-    assert E.sequential_status(x[:5], 10.0, min_n=8)["met"] is False     # min_n guards
-    assert E.sequential_status(x, hw / 2, max_n=20)["capped"]
-    assert E.sequential_status(x, hw * 1.01)["more"] == 2        # default pilot: 12 pairs
+    assert sequential.next_batch(st, batch=4, max_n=20) == 10
+    assert sequential.sequential_status(x[:5], 10.0, min_n=8)["met"] is False     # min_n guards
+    assert sequential.sequential_status(x, hw / 2, max_n=20)["capped"]
+    assert sequential.sequential_status(x, hw * 1.01)["more"] == 2        # default pilot: 12 pairs
 
 
 def test_sequential_stopping_on_the_spread_keeps_coverage():
@@ -278,8 +277,8 @@ def test_sequential_stopping_on_the_spread_keeps_coverage():
     for _ in range(1000):
         x = list(rng.normal(1.0, 1.0, 12))
         while True:
-            st = E.sequential_status(x, 0.5)
-            k = E.next_batch(st, batch=2, max_n=300)
+            st = sequential.sequential_status(x, 0.5)
+            k = sequential.next_batch(st, batch=2, max_n=300)
             if k == 0:
                 break
             x.extend(rng.normal(1.0, 1.0, k))
@@ -302,7 +301,7 @@ def test_fieller_ratio_covers_the_true_ratio(A, sa, na, B, sb, nb):
     truth, hit, n_unb = A / B, 0, 0
     for _ in range(4000):
         a, b = rng.normal(A, sa, na), rng.normal(B, sb, nb)
-        th, lo, hi, dof, _, _ = E.fieller_ratio(a, b)
+        th, lo, hi, dof, _, _ = intervals.fieller_ratio(a, b)
         assert th == pytest.approx(a.mean() / b.mean(), rel=1e-12)
         if np.isnan(lo):
             n_unb += 1
@@ -330,12 +329,12 @@ def test_fieller_from_means_covers_measured_over_monte_carlo_theory(n_runs, sd_r
         d = rng.normal(1.0, sd_run, n_runs)
         th_mc = rng.normal(1.0, se_theory)
         se_mc = se_theory * math.sqrt(rng.chisquare(1999) / 1999)
-        th, lo, hi, dof = E.fieller_from_means(d.mean(), d.var(ddof=1) / n_runs, n_runs - 1, th_mc, se_mc ** 2, 1999,
+        th, lo, hi, dof = intervals.fieller_from_means(d.mean(), d.var(ddof=1) / n_runs, n_runs - 1, th_mc, se_mc ** 2, 1999,
                                                dof=n_runs - 1)
         assert th == pytest.approx(d.mean() / th_mc, rel=1e-12) and dof == n_runs - 1
         hit += lo <= 1.0 <= hi
         if naive_below:
-            _, lo_t, hi_t, _, _ = E.t_interval(d / th_mc)
+            _, lo_t, hi_t, _, _ = intervals.t_interval(d / th_mc)
             hit_naive += lo_t <= 1.0 <= hi_t
     assert 0.945 <= hit / n_rep <= 0.968, hit / n_rep
     if naive_below:
@@ -345,13 +344,13 @@ def test_fieller_from_means_covers_measured_over_monte_carlo_theory(n_runs, sd_r
 def test_fieller_from_means_agrees_with_samples_and_refuses_bad_input():
     rng = np.random.default_rng(4)
     a, b = rng.normal(2.0, 0.1, 7), rng.normal(3.0, 0.2, 9)
-    assert E.fieller_from_means(a.mean(), a.var(ddof=1) / 7, 6, b.mean(), b.var(ddof=1) / 9, 8) == \
-        pytest.approx(E.fieller_ratio(a, b)[:4], rel=1e-14)
+    assert intervals.fieller_from_means(a.mean(), a.var(ddof=1) / 7, 6, b.mean(), b.var(ddof=1) / 9, 8) == \
+        pytest.approx(intervals.fieller_ratio(a, b)[:4], rel=1e-14)
     # the bounds are the roots of Fieller's quadratic (ma - theta mb)^2 = t^2 (va + theta^2 vb), with
     # Welch-Satterthwaite's dof at theta-hat, computed here from scipy's t quantile
     from scipy import stats
     ma, va, mb, vb = a.mean(), a.var(ddof=1) / 7, b.mean(), b.var(ddof=1) / 9
-    th, lo, hi, dof = E.fieller_from_means(ma, va, 6, mb, vb, 8)
+    th, lo, hi, dof = intervals.fieller_from_means(ma, va, 6, mb, vb, 8)
     r = ma / mb
     assert dof == pytest.approx((va + r * r * vb) ** 2 / (va * va / 6 + (r * r * vb) ** 2 / 8), rel=1e-12)
     q = stats.t.ppf(0.975, dof)
@@ -359,14 +358,14 @@ def test_fieller_from_means_agrees_with_samples_and_refuses_bad_input():
         assert (ma - x * mb) ** 2 == pytest.approx(q * q * (va + x * x * vb), rel=1e-10)
     assert th == pytest.approx(r, rel=1e-15) and lo < th < hi
     with pytest.raises(ValueError, match="need dof > 0"):
-        E.fieller_from_means(1.0, 0.1, 0, 1.0, 0.1, 5)
+        intervals.fieller_from_means(1.0, 0.1, 0, 1.0, 0.1, 5)
     with pytest.raises(ValueError, match="variances >= 0"):
-        E.fieller_from_means(1.0, -0.1, 3, 1.0, 0.1, 5)
+        intervals.fieller_from_means(1.0, -0.1, 3, 1.0, 0.1, 5)
     with pytest.raises(ValueError, match="need finite means"):
-        E.fieller_from_means(float("nan"), 0.1, 3, 1.0, 0.1, 5)
+        intervals.fieller_from_means(float("nan"), 0.1, 3, 1.0, 0.1, 5)
     # no variance at all: the interval is the point, never NaN from round-off
     for ma, mb in [(0.3, 0.7), (1.0, 3.0), (2.0, 0.9), (1e-3, 7.0)]:
-        th, lo, hi, _ = E.fieller_from_means(ma, 0.0, 3, mb, 0.0, 5)
+        th, lo, hi, _ = intervals.fieller_from_means(ma, 0.0, 3, mb, 0.0, 5)
         assert lo == pytest.approx(th, rel=1e-5) and hi == pytest.approx(th, rel=1e-5)
 
 
@@ -374,10 +373,10 @@ def test_fieller_ratio_is_unbounded_when_the_denominator_is_not_resolved():
     rng = np.random.default_rng(2)
     a, b = rng.normal(0.01, 0.01, 8), rng.normal(0.0, 0.05, 8)
     b = b - b.mean() + 0.005           # mean(b) well inside its noise
-    th, lo, hi, *_ = E.fieller_ratio(a, b)
+    th, lo, hi, *_ = intervals.fieller_ratio(a, b)
     assert np.isfinite(th) and np.isnan(lo) and np.isnan(hi)
     with pytest.raises(ValueError, match="at least 2 values"):
-        E.fieller_ratio([0.1], [0.2, 0.3])
+        intervals.fieller_ratio([0.1], [0.2, 0.3])
 
 
 def test_initial_decay_time_exact_on_an_exponential_and_unbiased_on_ou_walkers():
@@ -385,18 +384,18 @@ def test_initial_decay_time_exact_on_an_exponential_and_unbiased_on_ou_walkers()
     1,000 s: the tetrahedron gas) its mean over 40 replicas is within 3 standard errors of tau and
     its spread is about the 0.5 % per run the gas records show."""
     lag = np.arange(400) * 0.25
-    assert E.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6)) == pytest.approx(37.6, rel=1e-12)
+    assert diffusion.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6)) == pytest.approx(37.6, rel=1e-12)
     rng = np.random.default_rng(12)
     est = []
     for _ in range(40):
-        vel, _ = E.simulate_ou(rng, 864, 4001, 0.25, 37.6, 0.58, positions=False)
-        est.append(E.initial_decay_time(lag[:12], E.vacf_fft(vel, 11)))
+        vel, _ = synthetic.simulate_ou(rng, 864, 4001, 0.25, 37.6, 0.58, positions=False)
+        est.append(diffusion.initial_decay_time(lag[:12], correlation.vacf_fft(vel, 11)))
     est = np.array(est)
     se = est.std(ddof=1) / math.sqrt(len(est))
     assert abs(est.mean() - 37.6) < 3 * se, (est.mean(), se)
     assert 0.003 < est.std(ddof=1) / 37.6 < 0.009     # 0.57 % at this seed; the gas records show ~0.5 %
     with pytest.raises(ValueError, match="fewer than 2 lags"):
-        E.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6), t_fit=0.2)
+        diffusion.initial_decay_time(lag, 3.0 * np.exp(-lag / 37.6), t_fit=0.2)
 
 
 def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
@@ -405,7 +404,7 @@ def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
     rng = np.random.default_rng(3)
     a = rng.normal(10.0, 0.3, 200)
     b = a * 1.02 + rng.normal(0.0, 0.05, 200)
-    m, s = E.ratio_of_means(a, b)
+    m, s = intervals.ratio_of_means(a, b)
     assert m == pytest.approx(a.mean() / b.mean() - 1.0, rel=1e-14)
     n = len(a)
     loo = np.array([(a.sum() - a[i]) / (b.sum() - b[i]) for i in range(n)])
@@ -413,20 +412,42 @@ def test_ratio_of_means_is_the_jackknifed_ratio_and_refuses_bad_input():
     assert s == pytest.approx(s_jk, rel=2e-3)
     unpaired = math.sqrt(np.var(a / a.mean(), ddof=1) + np.var(b / b.mean(), ddof=1)) / math.sqrt(n)
     assert s < 0.2 * unpaired                          # paired: the common noise cancels
-    assert E.ratio_of_means(a, a) == (0.0, 0.0)
+    assert intervals.ratio_of_means(a, a) == (0.0, 0.0)
     for bad in ((a, b[:-1]), (a[:1], b[:1]), (np.r_[a[:-1], np.nan], b), (a, 0.0 * b)):
         with pytest.raises(ValueError, match="a and b must be"):
-            E.ratio_of_means(*bad)
+            intervals.ratio_of_means(*bad)
 
 
 def test_vacf_integral_is_the_trapezoid_of_an_exponential_to_its_last_lag():
     """(1/3) int_0^L A e^(-t/tau) dt = A tau (1 - e^(-L/tau)) / 3, to the trapezoid's dt^2/(12 tau^2)."""
     dt, tau, a = 0.25, 14.0, 3.0
     lag = np.arange(601) * dt
-    got = E.vacf_integral(lag, a * np.exp(-lag / tau))
+    got = diffusion.vacf_integral(lag, a * np.exp(-lag / tau))
     exact = a * tau * (1 - math.exp(-lag[-1] / tau)) / 3
     assert got == pytest.approx(exact, rel=2 * dt ** 2 / (12 * tau ** 2))
     assert got != pytest.approx(exact, rel=1e-7)                    # the trapezoid's own error is there
-    assert E.vacf_integral(lag, a * np.exp(-lag / tau), dim=1) == pytest.approx(3 * got, rel=1e-14)
+    assert diffusion.vacf_integral(lag, a * np.exp(-lag / tau), dim=1) == pytest.approx(3 * got, rel=1e-14)
     with pytest.raises(ValueError, match="must start at 0"):
-        E.vacf_integral(lag[::-1], np.exp(-lag / tau))
+        diffusion.vacf_integral(lag[::-1], np.exp(-lag / tau))
+
+
+# ---- the deprecated modules --------------------------------------------------------------
+@pytest.mark.parametrize("name", ["studies.estimators", "studies.msd"])
+def test_deprecated_modules_warn_and_reexport(name):
+    import importlib
+
+    sys.modules.pop(name, None)
+    with pytest.warns(DeprecationWarning, match="deprecated"):
+        old = importlib.import_module(name)
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.normal(size=(60, 5, 3)), axis=0)
+    if name == "studies.msd":
+        per_particle = old.msd_fft(x, per_particle=True)
+        assert per_particle.shape == (60, 5)
+        np.testing.assert_allclose(per_particle[:, 2], correlation.msd_bruteforce(x[:, 2]), rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(old.msd_fft(x), correlation.msd_bruteforce(x), rtol=1e-10, atol=1e-10)
+    else:
+        m, mg = old.msd_fft_groups(x, 20, groups=5)
+        np.testing.assert_allclose(m, correlation.msd_bruteforce(x)[:21], rtol=1e-10, atol=1e-10)
+        assert old.t_interval is intervals.t_interval and old.MIN_PAIRS == sequential.MIN_PAIRS
+        assert old._tq(0.95, 10) == pytest.approx(2.228138851986274)

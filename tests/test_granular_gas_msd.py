@@ -7,7 +7,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` witho
 import numpy as np
 import pytest
 
-from studies.msd import msd_bruteforce, msd_fft
+from studies.correlation import msd_bruteforce, msd_fft
 
 
 @pytest.mark.parametrize("T,N", [(1, 3), (2, 1), (7, 4), (64, 5), (301, 9)])
@@ -19,13 +19,14 @@ def test_fft_equals_bruteforce_on_random_walks(T, N):
     np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10)
 
 
-def test_per_particle_and_single_trajectory():
+def test_per_particle_groups_and_single_trajectory():
     rng = np.random.default_rng(1)
     x = np.cumsum(rng.normal(size=(50, 3, 3)), axis=0)
-    pp = msd_fft(x, per_particle=True)
-    assert pp.shape == (50, 3)
+    mean, per_particle = msd_fft(x, groups=np.arange(3))
+    assert per_particle.shape == (3, 50)
     for k in range(3):
-        np.testing.assert_allclose(pp[:, k], msd_bruteforce(x[:, k]), rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(per_particle[k], msd_bruteforce(x[:, k]), rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(mean, per_particle.mean(axis=0), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(msd_fft(x[:, 0]), msd_bruteforce(x[:, 0]), rtol=1e-10, atol=1e-10)
 
 

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies import analysis, design, effects, engine, estimators as est, reduce as red, runner
+from studies import analysis, design, diffusion, effects, engine, reduce as red, runner, sequential, synthetic
 from studies import spec as S
 
 TAU, SIGMA_V = 25.0, math.sqrt(0.629)         # s, m/s per component: the gas's values
@@ -28,7 +28,7 @@ D_TRUE = SIGMA_V ** 2 * TAU                    # m^2/s
 def frames_of(rng, n, t_end, dt, D_scale=1.0, share=None):
     """Frames as yade_scripts/granular_gas.py writes them, from OU walkers of D = D_scale D_TRUE."""
     nf = int(round(t_end / dt)) + 1
-    vel, pos = est.simulate_ou(rng, n, nf, dt, TAU, SIGMA_V * math.sqrt(D_scale))
+    vel, pos = synthetic.simulate_ou(rng, n, nf, dt, TAU, SIGMA_V * math.sqrt(D_scale))
     t = np.arange(nf) * dt
     m = 2.0
     e_t = 0.5 * m * np.sum(vel ** 2, axis=(1, 2))
@@ -444,12 +444,12 @@ def test_pairs_needed_is_the_smallest_sample_whose_t_interval_meets_the_target()
     from scipy import stats
 
     for sd, target, lo in [(0.03, 0.01, 12), (0.002, 0.01, 12), (0.05, 0.004, 2), (0.0, 0.01, 5)]:
-        n = est.pairs_needed(sd, target, lo)
+        n = sequential.pairs_needed(sd, target, lo)
         hw = lambda k: stats.t.ppf(0.975, k - 1) * sd / math.sqrt(k)     # noqa: E731
         assert n >= max(lo, 2) and hw(n) <= target
         assert n == max(lo, 2) or hw(n - 1) > target
     with pytest.raises(ValueError, match="finite sd"):
-        est.pairs_needed(float("nan"), 0.01)
+        sequential.pairs_needed(float("nan"), 0.01)
 
 
 def test_same_spin_report_divides_out_the_thermal_speed_drift(tmp_path):
@@ -1070,7 +1070,7 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
     truth = {"exact": (25.0, 1.0), "uncorrected": (27.5, 0.9)}          # tau, <v^2> scale
     for run in S.runs(sp):
         tau, v2 = truth[run["case"]]
-        vel, pos = est.simulate_ou(rng, 216, 1201, 0.25, tau, SIGMA_V * math.sqrt(v2))
+        vel, pos = synthetic.simulate_ou(rng, 216, 1201, 0.25, tau, SIGMA_V * math.sqrt(v2))
         t = np.arange(1201) * 0.25
         e_t = np.sum(vel ** 2, axis=(1, 2))
         fr = {"t": t, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32), "e_trans": e_t,
@@ -1107,7 +1107,7 @@ def test_rates_recover_known_relaxation_times_and_their_d_ratio(tmp_path):
         assert run["params"]["run"]["t_end"] == 500.0
         if run["case"] != "uncorrected":
             continue
-        vel, pos = est.simulate_ou(rng, 216, 1201, 0.25, 50.0, SIGMA_V * math.sqrt(0.9))
+        vel, pos = synthetic.simulate_ou(rng, 216, 1201, 0.25, 50.0, SIGMA_V * math.sqrt(0.9))
         e_t = np.sum(vel ** 2, axis=(1, 2))
         fr = {"t": np.arange(1201) * 0.25, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32),
               "e_trans": e_t, "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(1201), "momentum": np.zeros((1201, 3))}
@@ -1149,11 +1149,11 @@ def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixtu
     nw, nf, dt = 432, 2401, 0.25                                         # 600 s runs
     for run in S.runs(sp):
         if run["case"] == "uncorrected":
-            parts = [est.simulate_ou(rng, nw // 2, nf, dt, tau, SIGMA_V) for tau in (15.0, 35.0)]
+            parts = [synthetic.simulate_ou(rng, nw // 2, nf, dt, tau, SIGMA_V) for tau in (15.0, 35.0)]
             vel, pos = (np.concatenate([a[i] for a in parts], axis=1) for i in (0, 1))
         else:
             tau, v2 = (25.0, 1.0) if run["case"] == "exact" else (27.5, 0.9)
-            vel, pos = est.simulate_ou(rng, nw, nf, dt, tau, SIGMA_V * math.sqrt(v2))
+            vel, pos = synthetic.simulate_ou(rng, nw, nf, dt, tau, SIGMA_V * math.sqrt(v2))
         e_t = np.sum(vel ** 2, axis=(1, 2))
         fr = {"t": np.arange(nf) * dt, "disp": pos.astype(np.float32), "vel": vel.astype(np.float32), "e_trans": e_t,
               "e_rot": e_t * 2 / 3, "e_elastic": np.zeros(nf), "momentum": np.zeros((nf, 3))}
@@ -1171,8 +1171,8 @@ def test_rates_shape_factor_ratio_is_zero_for_exponential_vacfs_and_sees_a_mixtu
     lag = np.arange(401) * dt
     c_mix = 3 * SIGMA_V ** 2 * (np.exp(-lag / 15.0) + np.exp(-lag / 35.0)) / 2
     c_one = 3 * SIGMA_V ** 2 * np.exp(-lag / 25.0)
-    f_mix = est.diffusion_green_kubo(lag, c_mix) / (c_mix[0] * est.initial_decay_time(lag, c_mix) / 3)
-    f_one = est.diffusion_green_kubo(lag, c_one) / (c_one[0] * est.initial_decay_time(lag, c_one) / 3)
+    f_mix = diffusion.diffusion_green_kubo(lag, c_mix) / (c_mix[0] * diffusion.initial_decay_time(lag, c_mix) / 3)
+    f_one = diffusion.diffusion_green_kubo(lag, c_one) / (c_one[0] * diffusion.initial_decay_time(lag, c_one) / 3)
     expect = f_mix / f_one - 1.0
     assert 0.14 < expect <= 25.0 / 21.0 - 1.0 + 0.005, expect      # the closed form, less the missed tail
     mix = rr["uncorrected"]

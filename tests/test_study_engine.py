@@ -26,7 +26,7 @@ import tomllib
 
 from studies import engine, runner
 from studies import spec as S
-from studies.msd import msd_fft
+from studies.correlation import msd_fft
 
 ROOT = S.ROOT
 assert shutil.which("yade"), "the yade executable is missing: run scripts/setup.sh"

@@ -55,7 +55,7 @@ def environment():
 
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), keep_trailing_newline=True,
                              trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
-    from ..estimators import MIN_PAIRS
+    from ..sequential import MIN_PAIRS
 
     env.globals["min_pairs"] = MIN_PAIRS
     env.filters.update(pct=pct, pm=pm, pm95=pm95, fmt=fmt)

@@ -19,7 +19,7 @@ import pandas as pd
 
 from .. import design, effects, effects_plots, rates
 from .. import spec as S
-from ..estimators import MIN_PAIRS
+from ..sequential import MIN_PAIRS
 
 
 def read_json(path):
@@ -136,13 +136,13 @@ def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=No
     """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
     as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
     D_spheres/D_exact - 1 of the sphere gas against exact, with Fieller's 95 % interval
-    (studies.estimators.fieller_ratio, which takes a and b independent; coverage checked in the
+    (studies.intervals.fieller_ratio, which takes a and b independent; coverage checked in the
     tests).  Independence: an exact run's initial state (:func:`studies.effects.state_key`, seed) is
     in at most one of the two samples; a seed whose state both use (the same exact run, or the same
     start at another time step or run length) is left out of the larger sample (``n_dropped``).
     None without two pairs of each.  ``values``: :func:`studies.effects.paired_values` of
     ``specs``, if already read."""
-    from ..estimators import fieller_ratio
+    from ..intervals import fieller_ratio
 
     values = effects.paired_values(specs) if values is None else values
 
@@ -243,7 +243,7 @@ def same_spin_rows(specs, records=None):
     ratio - 1) and the effect with that drift divided out (``cm, clo, chi``: hard-particle scaling
     D ~ thermal speed), each a t-interval over seeds.  ``records``: each spec's records in the
     order of ``specs``, if already read."""
-    from ..estimators import t_interval
+    from ..intervals import t_interval
 
     out = []
     for i, sp in enumerate(specs):
