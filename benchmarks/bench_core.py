@@ -1,6 +1,6 @@
 """The compiled core (issue 9) against the numpy implementation it replaced, side by side in one run.
 
-Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_core.py [--quick]
+Run:  OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_core [--quick]
 
 Writes benchmarks/results/core.json and benchmarks/results/core_k_scaling.png.  Figures:
 
@@ -27,7 +27,6 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np  # noqa: E402
 

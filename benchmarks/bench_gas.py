@@ -16,7 +16,7 @@
 4. MSD analysis cost vs trajectory length T (864 particles): the FFT routine against the
    O(T^2) definition; fitted exponents.
 
-    .venv/bin/python benchmarks/bench_gas.py [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
+    .venv/bin/python -m benchmarks.bench_gas [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
                                              [--parts recording,collider,correction,driver,msd]
 
 Writes benchmarks/results/bench_gas.json (the parts run replace theirs; the others are kept) and
@@ -38,7 +38,6 @@ import tomllib
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 from studies import engine, runner  # noqa: E402
 from studies import spec as S  # noqa: E402
 from studies.msd import msd_bruteforce, msd_fft  # noqa: E402

@@ -1,6 +1,6 @@
 """Export speed: 10^5 clumps to every engine (a printed figure, not a timed test).
 
-    .venv/bin/python benchmarks/bench_io.py [--n 100000] [--spheres 2]
+    .venv/bin/python -m benchmarks.bench_io [--n 100000] [--spheres 2]
 
 Random clumps (the paper's dimer shape, d = 0.1333 m, D = d/2, randomly placed and
 oriented; with --spheres K > 2, K overlapping spheres) are written to a YADE textClumps
@@ -11,7 +11,7 @@ file (or folder) per clump (LIGGGHTS sphere files, LAMMPS molecule files, DEME C
 MClump folders), whose cost is file creation.  Prints seconds per stage and writes
 benchmarks/results/io.json.
 
-    .venv/bin/python benchmarks/bench_io.py --read-lines 1000000 [--formats textclumps,yade,...]
+    .venv/bin/python -m benchmarks.bench_io --read-lines 1000000 [--formats textclumps,yade,...]
 
 measures the readers instead: one file of N spheres per format (textClumps with dimers and
 as one N-sphere clump, CSV, LIGGGHTS, MClump, LAMMPS .mol), each read in a fresh process
@@ -34,7 +34,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from clumpprops.io import Clump, compute, export, read  # noqa: E402
 
 

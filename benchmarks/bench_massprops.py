@@ -1,6 +1,6 @@
 """Benchmarks of the mass-property methods (issues 2 and 3), measured side by side in one run.
 
-Run:  .venv/bin/python benchmarks/bench_massprops.py [--quick]
+Run:  .venv/bin/python -m benchmarks.bench_massprops [--quick]
 
 Prints (and writes to benchmarks/results/massprops.json):
  1. pairwise / exact / sum on 10^6 dimers, including principal axes (one core);

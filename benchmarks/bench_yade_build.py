@@ -1,7 +1,7 @@
 """Cost of building exact YADE clumps vs YADE's own appendClumped, measured in one run.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_yade_build.py            # 10^4 dimers, 10^3 20-sphere clumps
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_yade_build.py --quick    # 10x fewer
+    OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_yade_build            # 10^4 dimers, 10^3 20-sphere clumps
+    OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_yade_build --quick    # 10x fewer
 
 For each clump set (the same clumps in every variant, each variant in a fresh scene) it times
 the whole build a user runs: creating the sphere bodies (``utils.sphere``) and clumping them,
@@ -26,7 +26,6 @@ import sys
 import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np
 import yade

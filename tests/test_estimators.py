@@ -7,10 +7,6 @@ tau = 5 s, 16 tau per run: the study's 400 s / 25 s) so that 250 replicas take s
 that its criterion rejects a wrong estimator (the test can fail).
 """
 import math
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pytest

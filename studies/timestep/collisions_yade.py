@@ -1,11 +1,12 @@
 # -*- coding: utf-8 -*-
 """Binary collisions of clumps in YADE at one time step: the collision map of the dt study.
 
-    python3 benchmarks/timestep_collisions_yade.py IN.json OUT.json
+    python -m studies.timestep.collisions_yade IN.json OUT.json      # from the repository's root
 
-(YADE 2023.02a: ``.venv/bin/python``; YADE 2025.2: ``scripts/debian13.sh run python3
-/repo/benchmarks/timestep_collisions_yade.py ...``.)  ``benchmarks/bench_timestep.py`` writes IN
-and reads OUT; nothing else uses this script.
+(YADE 2023.02a: ``.venv/bin/python -m ...``; YADE 2025.2: ``scripts/debian13.sh run env
+PYTHONPATH=/usr/lib/x86_64-linux-gnu/yade-double/py python3 -m ...``, as Debian's python3 does not
+have YADE's Python package on its path.)  ``studies.timestep.collisions.run_map`` writes IN and
+reads OUT; nothing else uses this module.
 
 IN holds the material, the time step, the body (members, radii, mass, principal moments, builder
 and route, exactly as ``studies.spec.run_input`` resolves them for the gas) and 2 n bodies: pair k
@@ -29,13 +30,7 @@ import os
 import sys
 import time
 
-os.environ["OMP_NUM_THREADS"] = "1"
-YADE_PY = "/usr/lib/x86_64-linux-gnu/yade-double/py"
-if YADE_PY not in sys.path:
-    sys.path.append(YADE_PY)
-ROOT = os.environ.get("CLUMPPROPS_ROOT") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+os.environ["OMP_NUM_THREADS"] = "1"     # before YADE is imported: one thread per process
 
 import numpy as np  # noqa: E402
 import yade  # noqa: E402
@@ -128,7 +123,7 @@ def main(inp, outp):
             # trimer's 4000-pair lattice, |x| up to 890 m: median 2e-8, max 1.5e-7).  Check to 1e-6 (a
             # wrong shape or mass is off by percents), then give every clump the case's moments, in
             # YADE's principal frame (any frame, for a degenerate tensor).
-            # mass_scaled (benchmarks/case_map.py): the exact build's moments times moment_scale
+            # mass_scaled (studies/maps.py): the exact build's moments times moment_scale
             got = np.array([float(x) for x in b.state.inertia]) * float(body.get("moment_scale", 1.0))
             order = np.argsort(got)
             if np.max(np.abs(got[order] / np.sort(MOMENTS) - 1)) > 1e-6:

@@ -1,8 +1,8 @@
 """How much D of committed runs depends on the Green-Kubo estimator's choices (issue 12).
 
-    .venv/bin/python benchmarks/gk_sensitivity.py                        # results/sphere_gas
-    .venv/bin/python benchmarks/gk_sensitivity.py results/dimer_paired    # any study's records
-    .venv/bin/python benchmarks/gk_sensitivity.py results/shapes --pair tet-exact-paired tet-uncorrected-equal_energy
+    .venv/bin/python -m studies gk-sensitivity                        # results/sphere_gas
+    .venv/bin/python -m studies gk-sensitivity results/dimer_paired    # any study's records
+    .venv/bin/python -m studies gk-sensitivity results/shapes --pair tet-exact-paired tet-uncorrected-equal_energy
 
 Reads the reduced run records (no simulation) and recomputes D of each run from its stored
 velocity autocorrelation with other truncations and tail-fit windows, with the plain integral to
@@ -26,6 +26,8 @@ for that run (n/a, left out of the count of pairs); a tail-fit window that reach
 lag is clipped there (``estimators.diffusion_green_kubo``), and the output says in how many runs
 or pairs that happened.
 """
+from __future__ import annotations
+
 import argparse
 import glob
 import json
@@ -35,10 +37,8 @@ import sys
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-
-from studies import estimators as est  # noqa: E402
+from . import estimators as est
+from .spec import ROOT
 
 VARIANTS = {  # name: (truncation in tau_hat, tail-fit window in tau_hat)
     "t_c = 1 tau, fit 1-3 tau": (1.0, (1.0, 3.0)),
@@ -161,14 +161,16 @@ def paired(rows, a, b):
     return out, sets
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def main(argv=None):
+    """``python -m studies gk-sensitivity [RESULTS] [--case C] [--pair A B]``: prints the tables."""
+    ap = argparse.ArgumentParser(prog="python -m studies gk-sensitivity", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results", nargs="?", default=os.path.join(ROOT, "results", "sphere_gas"))
     ap.add_argument("--case", default=None, help="only runs of this case (e.g. exact)")
     ap.add_argument("--pair", nargs=2, metavar=("A", "B"), default=None,
                     help="compare run sets A and B seed by seed (run names without -s<seed>-<key>), "
                          "e.g. tet-exact-paired tet-uncorrected-equal_energy")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     paths = sorted(glob.glob(os.path.join(a.results, "runs", "*.json")))
     if a.case:
         paths = [p for p in paths if f"-{a.case}-" in os.path.basename(p)]

@@ -20,9 +20,9 @@ paired differences (a partner run with tau_B = 1.04 tau sharing the initial velo
 half the noise) with 8 and 40 pairs.  Then the sequential design (optional stopping on the
 spread) on normal and on the bank of GK pair differences.
 
-    OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/bench_estimator.py [--replicas 500]
+    OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python -m studies estimator-validation [--replicas 500]
 
-Writes benchmarks/results/estimator.json.
+Writes results/estimator/estimator.json (its printed tables: results/estimator/estimator.txt).
 """
 from __future__ import annotations
 
@@ -31,14 +31,12 @@ import json
 import math
 import os
 import platform
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from studies import estimators as E  # noqa: E402
+from . import estimators as E
+from .spec import ROOT
 
 N = 864
 DT = 0.25
@@ -147,11 +145,11 @@ def relaxing_share(rng, t_end, amp, dt=0.25, tau_relax=28.4, sd=0.0105, corr=28.
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m studies estimator-validation", description=__doc__.split("\n")[0])
     ap.add_argument("--replicas", type=int, default=500)
     ap.add_argument("--tau", type=float, default=25.0)
     ap.add_argument("--seed", type=int, default=20261123)
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "estimator.json"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "estimator", "estimator.json"))
     ap.add_argument("--raw", default="/tmp/bench_estimator_raw.npz",
                     help="per-replica results, saved every 25 replicas (resumed from if present)")
     ap.add_argument("--long-first", type=int, default=50, help="replicas 0..k-1 are 1000 s runs (+ their first 400 s)")
