@@ -34,7 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from clumpprops.io import Clump, compute, export, read  # noqa: E402
+from clumpprops.io import Clump, compute, export, read
+
+from .harness import write
 
 
 def make_clumps(n, k, seed=1):
@@ -144,9 +146,7 @@ def bench_read(n, formats):
               f"{s['peak_bytes'] / size:5.1f} | {s['seconds'] / v['seconds']:7.1f}x {s['peak_bytes'] / v['peak_bytes']:5.1f}x")
     res["load_average_1min"] = os.getloadavg()[0]
     print(f"  (load average {res['load_average_1min']:.1f} on {os.cpu_count()} cores)")
-    outdir = Path(__file__).resolve().parent / "results"
-    outdir.mkdir(exist_ok=True)
-    (outdir / "io_read.json").write_text(json.dumps(res, indent=1) + "\n")
+    write("io_read.json", res)
 
 
 def main():
@@ -204,11 +204,9 @@ def main():
             print(f"  read + compute + {k:41s} {total + v:7.2f} s  cpu {ctotal + res['cpu_seconds'][k]:6.2f} s")
     res["load_average_1min"] = os.getloadavg()[0]
     print(f"  (load average {res['load_average_1min']:.1f} on {os.cpu_count()} cores)")
-    outdir = Path(__file__).resolve().parent / "results"
-    outdir.mkdir(exist_ok=True)
     res["when"] = time.strftime("%Y-%m-%d %H:%M")
     res["cpu"] = os.cpu_count()
-    (outdir / f"io{'' if args.spheres == 2 else f'_{args.spheres}'}.json").write_text(json.dumps(res, indent=1) + "\n")
+    write(f"io{'' if args.spheres == 2 else f'_{args.spheres}'}.json", res)
 
 
 if __name__ == "__main__":

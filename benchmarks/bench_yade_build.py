@@ -35,6 +35,8 @@ from yade.wrapper import FrictMat
 import clumpprops
 from clumpprops import yade as cy
 
+from .harness import write
+
 O = yade.O
 RHO = 1140.0
 
@@ -163,12 +165,7 @@ def main():
     out["clumps20"] = bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng), repeat=a.repeat)
     out["loadavg_end"] = os.getloadavg()
     if not a.quick:
-        import json
-
-        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "yade_build.json")
-        with open(path, "w") as fh:
-            json.dump(out, fh, indent=1)
-        print("written", path)
+        write("yade_build.json", out)
 
 
 if __name__ == "__main__":
