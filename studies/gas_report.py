@@ -1,6 +1,10 @@
 """Markdown tables of the granular-gas results, from the CSV/JSON files only.
 
     .venv/bin/python -m studies.gas_report results/granular_gas
+
+Rendered from ``studies/templates/gas_report.md.j2`` (Jinja2) with the values of ``params.json``,
+``protocols.csv``, ``diff_D.csv``, ``ratio_D.csv``, ``protocol_effect.csv`` (where there is one)
+and ``runs.csv``.
 """
 from __future__ import annotations
 
@@ -9,57 +13,41 @@ import os
 
 import pandas as pd
 
+TEMPLATES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "templates")
+
 
 def fmt(x, nd=3):
+    """A table value with ``nd`` decimals, "–" where the table has none."""
     return "–" if pd.isna(x) else f"{x:.{nd}f}"
 
 
-def report(out):
-    lines = []
+def context(out):
+    """The template's values for the study whose tables are in ``out``: each protocol row beside its
+    paired difference from exact (None for exact), the paper's ratios, the protocol effect and the
+    runs' drifts."""
     with open(os.path.join(out, "params.json")) as f:
         p = json.load(f)
-    s = pd.read_csv(os.path.join(out, "protocols.csv"))
     d = pd.read_csv(os.path.join(out, "diff_D.csv"))
-    r = pd.read_csv(os.path.join(out, "ratio_D.csv"))
     runs = pd.read_csv(os.path.join(out, "runs.csv"))
-    lines.append(f"{p['n_particles']} particles, box {p['box_length']:.4f} m, {p['t_end']:g} s per run, "
-                 f"dt {p['dt']:.4g} s, equilibration cut {p['t_eq']:g} s, D fitted on lags "
-                 f"{p['fit_window_s'][0]:g}-{p['fit_window_s'][1]:g} s; {p['n_runs_ok']} runs used, "
-                 f"{p['n_runs_excluded']} excluded, {p['n_runs_missing']} missing.\n")
-    lines.append("| case | protocol | seeds | D (m²/s) | 95 % CI | D − D_exact (paired) | 95 % CI | relative | max energy drift |")
-    lines.append("|---|---|---|---|---|---|---|---|---|")
-    for row in s.itertuples():
+    protocols = []
+    for row in pd.read_csv(os.path.join(out, "protocols.csv")).itertuples():
         dd = d[(d.case == row.case) & (d.protocol == row.protocol)]
-        if len(dd):
-            q = dd.iloc[0]
-            diff = (f"{q.d_minus_d_exact:+.3f}", f"[{q.ci_low:+.3f}, {q.ci_high:+.3f}]",
-                    f"{100 * q.relative:+.2f} % [{100 * q.relative_ci_low:+.2f}, {100 * q.relative_ci_high:+.2f}]")
-        else:
-            diff = ("–", "–", "–")
-        lines.append(f"| {row.case} | {row.protocol} | {row.n_seeds} | {fmt(row.diffusion_coefficient)} | "
-                     f"[{fmt(row.ci_low)}, {fmt(row.ci_high)}] | {diff[0]} | {diff[1]} | {diff[2]} | "
-                     f"{row.max_energy_drift:.1e} |")
-    lines.append("")
-    lines.append("| paper's ratio for D: (D_case − D_exact)/(D_spheres − D_exact) | seeds | ratio | 95 % CI |")
-    lines.append("|---|---|---|---|")
-    for row in r.itertuples():
-        lines.append(f"| {row.case} | {row.n_seeds} | {row.ratio:+.3f} | [{row.ci_low:+.3f}, {row.ci_high:+.3f}] |")
+        protocols.append((row, dd.iloc[0] if len(dd) else None))
     pe = os.path.join(out, "protocol_effect.csv")
-    if os.path.exists(pe):
-        lines.append("")
-        lines.append("| protocol effect: D_equal_energy / D_paired (same case, paired by seed) | seeds | ratio | 95 % CI | hard-particle scaling sqrt(m_exact/m) |")
-        lines.append("|---|---|---|---|---|")
-        for row in pd.read_csv(pe).itertuples():
-            lines.append(f"| {row.case} | {row.n_seeds} | {row.d_equal_energy_over_d_paired:.4f} | "
-                         f"[{row.ci_low:.4f}, {row.ci_high:.4f}] | {row.hard_particle_prediction:.4f} |")
-    lines.append("")
-    lines.append(f"Energy drift over all {len(runs)} runs: max {runs.energy_drift.max():.1e}, median "
-                 f"{runs.energy_drift.median():.1e}; momentum drift max {runs.momentum_drift.max():.1e}; "
-                 f"{int((~runs.ok.astype(bool)).sum())} runs flagged.")
-    if p.get("wall_sweep_s"):
-        lines.append(f"Wall time of the last `run` invocation: {p['wall_sweep_s'] / 60:.0f} min; sum of the wall "
-                     f"times of all {p['n_runs']} runs: {p['wall_run_s_total'] / 60:.0f} min (2 processes side by side).")
-    return "\n".join(lines)
+    return {"p": p, "protocols": protocols, "ratios": list(pd.read_csv(os.path.join(out, "ratio_D.csv")).itertuples()),
+            "protocol_effect": list(pd.read_csv(pe).itertuples()) if os.path.exists(pe) else None,
+            "runs": {"n": len(runs), "energy_max": runs.energy_drift.max(), "energy_median": runs.energy_drift.median(),
+                     "momentum_max": runs.momentum_drift.max(), "flagged": int((~runs.ok.astype(bool)).sum())}}
+
+
+def report(out):
+    """The Markdown summary of the results directory ``out`` (its last line without a newline)."""
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), keep_trailing_newline=True,
+                             trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
+    env.filters.update(fmt=format, num=fmt)
+    return env.get_template("gas_report.md.j2").render(**context(out)).removesuffix("\n")
 
 
 if __name__ == "__main__":

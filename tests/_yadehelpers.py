@@ -1,5 +1,9 @@
 """Shared helpers for the YADE adapter tests (real YADE, plain ``import yade``)."""
 import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # before YADE is imported anywhere in this process
 
@@ -110,3 +114,37 @@ def scene_snapshot():
             )
         )
     return snap
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# The start of every YADE script the tests run in a fresh process (calls that abort YADE, a first
+# import): YADE, the adapter of this source tree, and one corrected clump whose correction is
+# heavily negative (two small spheres inside a big one: the union is the big sphere, the correction's
+# mass minus the small spheres').  The guards on O.bodies are not installed.
+YADE_PRELUDE = textwrap.dedent(
+    """
+    import os, sys
+    os.environ["OMP_NUM_THREADS"] = "1"
+    import yade
+    from yade import utils
+    from yade.wrapper import FrictMat
+    from clumpprops import yade as cy
+    O = yade.O
+    O.materials.append(FrictMat(density=1140.0, label="m"))
+    d = 0.1333
+    spheres = [utils.sphere((0, 0, 0), d / 2, material="m")] + [utils.sphere((0, 0, z), 0.0125, material="m") for z in (-0.01, 0.01)]
+    cid, mids = cy.append_clump(spheres)
+    """
+)
+
+
+def run_yade_script(tmp_path, body, *args, timeout=120):
+    """Run :data:`YADE_PRELUDE` followed by ``body`` (dedented) in a fresh Python with this source
+    tree's ``clumpprops`` first on its path; returns the ``subprocess.CompletedProcess``."""
+    script = tmp_path / "yade_script.py"
+    script.write_text(YADE_PRELUDE + textwrap.dedent(body))
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=path)
+    return subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=timeout,
+                          env=env, cwd=tmp_path)

@@ -48,7 +48,7 @@ def test_the_sdist_holds_the_core_sources_and_nothing_of_the_studies(tmp_path):
     (sdist,) = tmp_path.glob("clumpprops-*.tar.gz")
     names = [n.split("/", 1)[1] for n in tarfile.open(sdist).getnames() if "/" in n]
     for need in ("clumpprops/core/_core.cpp", "clumpprops/core/clumpprops.hpp", "setup.py", "pyproject.toml",
-                 "LICENSE", "README.md", "clumpprops/yade.py"):
+                 "LICENSE", "README.md", "clumpprops/yade/__init__.py", "clumpprops/yade/build.py"):
         assert need in names, need
     assert not [n for n in names if n.split("/")[0] in ("results", "studies", "tests", "benchmarks", "yade_scripts")]
     assert not [n for n in names if n.endswith(".so")]

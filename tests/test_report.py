@@ -1,9 +1,10 @@
-"""The generated report (studies/report.py) and the sphere-gas table (studies/sphere_gas.py) from
+"""The generated report (studies/report/) and the sphere-gas table (studies/sphere_gas.py) from
 the committed results: every number in the answers comes from the tables, and the committed
 sphere gas agrees with kinetic theory."""
 import json
 import math
 import shutil
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -21,10 +22,21 @@ def results_copy(tmp_path, monkeypatch):
     return dst
 
 
-def test_report_states_answers_from_the_tables(results_copy):
+def test_report_regenerates_the_committed_page_and_effects_table(results_copy):
+    """The golden file: the page rendered from the committed results is the committed
+    results/README.md byte for byte, and results/effects.csv is rewritten unchanged.  Every wording
+    lives in studies/templates/report/; a change of wording is a change of this file and the page."""
+    committed = (Path(S.ROOT) / "results" / "README.md").read_text()
+    effects_csv = (Path(S.ROOT) / "results" / "effects.csv").read_bytes()
     text = report.build()
-    assert "## The answers so far" in text
+    assert text == committed
     assert (results_copy / "README.md").read_text() == text
+    assert (results_copy / "effects.csv").read_bytes() == effects_csv
+
+
+def test_report_states_the_numbers_of_its_tables(results_copy):
+    """The page's numbers are those of the tables it reads (the CSV files, not the page's own code)."""
+    text = report.build()
     sph = pd.read_csv(results_copy / "sphere_gas.csv")
     diff = pd.read_csv(results_copy / "granular_gas" / "diff_D.csv")
     u = diff[(diff.case == "uncorrected") & (diff.protocol == "paired")].iloc[0]
@@ -33,8 +45,38 @@ def test_report_states_answers_from_the_tables(results_copy):
         assert f"measured D {100 * (r.ratio_hertz - 1):+.2f} %" in text
         ci = "n/a" if pd.isna(r.ci_low) else f"[{r.ci_low:.3f}, {r.ci_high:.3f}]"     # one run: no interval
         assert f"| {r.D:.3f} | {ci} |" in text
-    # the dimer_paired answer names its half-width and projection
-    assert "uncorrected vs exact (paired protocol, `dimer_paired`)" in text
+    eff = pd.read_csv(results_copy / "effects.csv")
+    for r in eff.itertuples():
+        assert (f"| {r.shape} | {'' if pd.isna(r.overlap) else r.overlap} | {r.protocol} | {r.youngs_modulus:.0e} | "
+                f"{r.case} | {r.n_pairs} | {100 * r.relative:+.2f} % |") in text
+
+
+def test_effects_rows_agree_with_the_run_records_by_an_independent_route():
+    """The stiffness series' rows of results/effects.csv, recomputed from the run records alone: each
+    seed's D_mass_only / D_exact - 1 (the records' Green-Kubo D), its mean and a Student-t 95 %
+    interval written out here (not studies.estimators)."""
+    from scipy import stats
+
+    from studies import design
+    sp = S.load(S.ROOT + "/studies/specs/stiffness.toml")
+    by = {}
+    for rec in design.load_records(sp, S.results_dir(sp)).values():
+        if rec["checks"]["ok"]:
+            e_mod = float(rec["params"]["material"]["youngs_modulus"])
+            by.setdefault((e_mod, rec["seed"]), {})[rec["case"]] = design.run_d(rec, sp["analysis"]["t_eq"],
+                                                                                stderr=False)["D"]
+    eff = pd.read_csv(S.ROOT + "/results/effects.csv")
+    for e_mod in (1e8, 1e9):
+        x = [c["mass_only"] / c["exact"] - 1 for (e, _), c in sorted(by.items())
+             if e == e_mod and {"exact", "mass_only"} <= set(c)]
+        n = len(x)
+        mean = sum(x) / n
+        hw = stats.t.ppf(0.975, n - 1) * math.sqrt(sum((v - mean) ** 2 for v in x) / (n - 1)) / math.sqrt(n)
+        (row,) = eff[(eff["shape"] == "dimer") & (eff["youngs_modulus"] == e_mod) & (eff["case"] == "mass_only")
+                     & (eff["protocol"] == "paired")].itertuples()
+        assert row.n_pairs == n >= 12
+        assert row.relative == pytest.approx(mean, abs=1e-9)
+        assert (row.relative_ci_low, row.relative_ci_high) == pytest.approx((mean - hw, mean + hw), abs=1e-9)
 
 
 def test_report_without_sphere_table_says_so(results_copy):
@@ -559,3 +601,19 @@ def test_a_broken_study_is_reported_in_its_own_section_and_the_others_still_are(
     shapes = set(pd.read_csv(results_copy / "effects.csv")["shape"])
     assert "tetrahedron" not in shapes and "dimer" in shapes          # only the broken study's rows are gone
     assert "shapes" in effects.HEADLINE
+
+
+def test_gas_report_states_the_values_of_its_tables():
+    """`python -m studies.gas_report`: every paired difference and every ratio of the study's CSV
+    tables, in its row, and a protocol without a difference (exact) shows dashes."""
+    from studies import gas_report
+    out = S.ROOT + "/results/granular_gas"
+    text = gas_report.report(out)
+    rows = {ln.split(" | ")[0][2:] + "/" + ln.split(" | ")[1]: ln for ln in text.splitlines() if ln.count(" | ") == 8}
+    for r in pd.read_csv(out + "/diff_D.csv").itertuples():
+        assert (f"| {r.d_minus_d_exact:+.3f} | [{r.ci_low:+.3f}, {r.ci_high:+.3f}] | {100 * r.relative:+.2f} % "
+                f"[{100 * r.relative_ci_low:+.2f}, {100 * r.relative_ci_high:+.2f}] |") in rows[f"{r.case}/{r.protocol}"]
+    assert "| – | – | – |" in rows["exact/paired"]
+    for r in pd.read_csv(out + "/ratio_D.csv").itertuples():
+        assert f"| {r.case} | {r.n_seeds} | {r.ratio:+.3f} | [{r.ci_low:+.3f}, {r.ci_high:+.3f}] |" in text
+    assert not text.endswith("\n")

@@ -16,6 +16,8 @@ from yade.wrapper import (
     NewtonIntegrator,
 )
 
+cy.install_guards()  # these tests check YADE's O.bodies methods as the guards route them
+
 
 @pytest.fixture
 def scene():
@@ -395,3 +397,24 @@ def test_degenerate_clumps(scene, centers, radii):
     # the correction stays inside the clump (it is the excess of the summed over the union)
     reach = np.max(np.linalg.norm(c - mp.center_of_mass, axis=1) + r)
     assert np.linalg.norm(vec(corr.state.pos) - mp.center_of_mass) <= reach * (1 + 1e-12)
+
+
+def test_public_names_and_their_argument_names():
+    """Every name of ``__all__`` and every ``cy.<name>`` of docs/yade_adapter.md exists; public
+    functions take snake_case arguments, except the drop-ins that mirror a YADE function, which keep
+    its camelCase keywords and say so."""
+    import inspect
+    import re
+    from pathlib import Path
+
+    mirrors = {"text_clumps": {"fileName"}, "erase": {"eraseClumpMembers"}, "update_clump_properties": {"excludeList"}}
+    for name in cy.__all__:
+        obj = getattr(cy, name)
+        if inspect.isfunction(obj):
+            camel = {p for p in inspect.signature(obj).parameters if p != p.lower()}
+            assert camel == mirrors.get(name, set()), name
+            assert name not in mirrors or "camelCase" in obj.__doc__, name
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "yade_adapter.md").read_text()
+    used = set(re.findall(r"\bcy\.([a-zA-Z]\w*)", doc))
+    assert {"append_clump", "install_guards", "check", "unguarded"} <= used
+    assert not [n for n in used if not hasattr(cy, n)]

@@ -23,6 +23,7 @@ sys.path.insert(0, {root!r})
 import numpy as np
 import clumpprops
 from clumpprops import yade as cy
+cy.install_guards()
 from yade import utils
 from yade.wrapper import FrictMat
 O.materials.append(FrictMat(density=2650, label="m"))

@@ -2,27 +2,24 @@
 or reported by ``cy.check()``; none aborts the process (real YADE, 2023.02a and 2025.2).
 
 Every refusal is checked to leave the scene unchanged; where YADE itself would abort
-(``Clump.cpp: Assertion 'M > 0' failed``) the call runs in a subprocess, guarded (refused, exit 0)
-and unguarded (``cy.unguarded()``: the abort, the negative control).
+(``Clump.cpp: Assertion 'M > 0' failed``) the call runs in a subprocess, guarded
+(``cy.install_guards()``: refused, exit 0) and with YADE's own methods (the abort, the negative
+control).  Importing the adapter and building clumps install nothing: that too runs in a fresh process.
 """
-import os
-import subprocess
-import sys
-import textwrap
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from _yadehelpers import (
-    O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, scene_snapshot, vec, utils,
+    O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, run_yade_script,
+    scene_snapshot, vec, utils,
 )
 
 import clumpprops
 from clumpprops import yade as cy
 from yade.wrapper import ForceResetter, FrictMat, GravityEngine, NewtonIntegrator
 
-ROOT = Path(__file__).resolve().parents[1]
+cy.install_guards()  # these tests check YADE's O.bodies methods as the guards route them
+
 G = 9.81
 
 
@@ -54,63 +51,44 @@ def assert_exact(cid):
 
 # ---------------------------------------------------------------- calls that abort YADE: subprocesses
 
-ABORT_SCRIPT = textwrap.dedent(
-    """
-    import os, sys
-    os.environ["OMP_NUM_THREADS"] = "1"
-    sys.path.insert(0, {root!r})
-    import yade
-    from yade import utils
-    from yade.wrapper import FrictMat
-    from clumpprops import yade as cy
-    O = yade.O
-    O.materials.append(FrictMat(density=1140.0, label="m"))
-    d = 0.1333
-    # two small spheres inside a big one: the correction's mass is minus the small spheres' mass
-    spheres = [utils.sphere((0, 0, 0), d / 2, material="m")] + [utils.sphere((0, 0, z), 0.0125, material="m") for z in (-0.01, 0.01)]
-    cid, mids = cy.append_clump(spheres)
-    corr = cy.correction_id(cid)
-    free = O.bodies.append(utils.sphere((1, 0, 0), 0.0125, material="m"))
-    plain, _ = O.bodies.appendClumped([utils.sphere((2, 0, z), 0.01, material="m") for z in (0, 0.01)])
-    guarded = sys.argv[1] == "guarded"
-    call = sys.argv[2]
-    def run():
-        if call == "clump":                 # the issue's call: correction and a free sphere
-            O.bodies.clump([corr, free], discretization=0)
-        elif call == "addToClump_free_correction":   # a correction left free by YADE's own erase, added to a plain clump
-            with cy.unguarded():
-                O.bodies.erase(cid)
-            O.bodies.addToClump([corr], plain, discretization=0)
-        elif call == "appendClumped_correction_body":  # a body made like a correction, appended as a member
-            from yade.wrapper import Body, Shape
-            b = Body()
-            b.shape, b.bounded, b.material = Shape(), False, O.materials[0]
-            b.state.mass = -1.0
-            O.bodies.appendClumped([utils.sphere((3, 0, 0), 0.0125, material="m"), b], discretization=0)
-        elif call == "deleteClumpBody":
-            O.bodies.deleteClumpBody(O.bodies[cid])
-    try:
-        if guarded:
-            run()
-        else:
-            with cy.unguarded():
-                run()
-    except cy.ClumpAdapterError as exc:
-        print("refused:", exc)
-        print("check ok:", cy.check().ok if call != "addToClump_free_correction" else "n/a")
-        print("bodies:", len(O.bodies))
-        sys.exit(0)
-    print("no error")
-    print("orphaned:", [i for i, _ in cy.check().orphaned])
-    """
-)
+ABORT_SCRIPT = """
+corr = cy.correction_id(cid)
+free = O.bodies.append(utils.sphere((1, 0, 0), 0.0125, material="m"))
+plain, _ = O.bodies.appendClumped([utils.sphere((2, 0, z), 0.01, material="m") for z in (0, 0.01)])
+guarded = sys.argv[1] == "guarded"
+call = sys.argv[2]
+if guarded:
+    cy.install_guards()
+def run():
+    if call == "clump":                 # the issue's call: correction and a free sphere
+        O.bodies.clump([corr, free], discretization=0)
+    elif call == "addToClump_free_correction":   # a correction left free by YADE's own erase, added to a plain clump
+        with cy.unguarded():
+            O.bodies.erase(cid)
+        O.bodies.addToClump([corr], plain, discretization=0)
+    elif call == "appendClumped_correction_body":  # a body made like a correction, appended as a member
+        from yade.wrapper import Body, Shape
+        b = Body()
+        b.shape, b.bounded, b.material = Shape(), False, O.materials[0]
+        b.state.mass = -1.0
+        O.bodies.appendClumped([utils.sphere((3, 0, 0), 0.0125, material="m"), b], discretization=0)
+    elif call == "deleteClumpBody":
+        O.bodies.deleteClumpBody(O.bodies[cid])
+try:
+    run()
+except cy.ClumpAdapterError as exc:
+    print("refused:", exc)
+    print("check ok:", cy.check().ok if call != "addToClump_free_correction" else "n/a")
+    print("bodies:", len(O.bodies))
+    sys.exit(0)
+print("no error")
+print("orphaned:", [i for i, _ in cy.check().orphaned])
+"""
 
 
 def run_script(tmp_path, guarded, call):
-    script = tmp_path / "abort.py"
-    script.write_text(ABORT_SCRIPT.format(root=str(ROOT)))
-    return subprocess.run([sys.executable, str(script), "guarded" if guarded else "unguarded", call],
-                          capture_output=True, text=True, timeout=120, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    """The ABORT_SCRIPT call, with the guards installed (``guarded``) or YADE's own methods."""
+    return run_yade_script(tmp_path, ABORT_SCRIPT, "guarded" if guarded else "unguarded", call)
 
 
 ABORTING_CALLS = ["clump", "addToClump_free_correction", "appendClumped_correction_body"]
@@ -132,6 +110,31 @@ def test_calls_that_abort_yade_negative_control(tmp_path, call):
     """The same calls made unguarded: YADE aborts the process (SIGABRT, ``M > 0`` assertion)."""
     p = run_script(tmp_path, False, call)
     assert p.returncode == -6 and "M > 0' failed" in p.stderr, (p.returncode, p.stdout[-500:], p.stderr[-500:])
+
+
+NO_PATCH_SCRIPT = """
+import types
+from clumpprops.yade.guards import _GUARDED
+BC = type(O.bodies)
+def patched():
+    return [n for n in _GUARDED if isinstance(getattr(BC, n), types.FunctionType)]
+cy.correct_clump(cid)
+O.bodies.erase(cy.append_clump([utils.sphere((5, 0, 0), 0.05, material="m")])[0])
+ok = cy.check().ok
+print("before:", patched(), cy.guards_installed(), ok)
+print("install:", cy.install_guards(), cy.install_guards())
+print("after:", len(patched()) == len(_GUARDED), cy.guards_installed())
+"""
+
+
+def test_importing_and_building_patch_nothing(tmp_path):
+    """Importing clumpprops.yade, loading YADE through it, building and correcting clumps leave YADE's
+    O.bodies methods as they are (YADE's erase of a corrected clump then leaves its correction free:
+    check() is not ok); install_guards() patches them, once."""
+    p = run_yade_script(tmp_path, NO_PATCH_SCRIPT)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "before: [] False False" in p.stdout, p.stdout
+    assert "install: True False" in p.stdout and "after: True True" in p.stdout, p.stdout
 
 
 # ---------------------------------------------------------------- O.bodies.clump / appendClumped

@@ -6,30 +6,30 @@ anything changes.  Where YADE's own call does something wrong with a corrected c
 call made unguarded (``cy.unguarded()``: YADE as if the adapter were not loaded) is the
 negative control, so each test can fail.
 """
-import os
 import signal
 import subprocess
 import sys
 import textwrap
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from _yadehelpers import (
     O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, random_clump,
-    scene_snapshot, vec, yade, utils,
+    run_yade_script, scene_snapshot, vec, yade, utils,
 )
 
 import clumpprops
 from clumpprops import yade as cy
+from clumpprops.yade import build
 from yade.wrapper import (
     Body, CpmMat, CpmStateUpdater, ForceResetter, FrictMat, GravityEngine, InsertionSortCollider, JCFpmMat,
     NewtonIntegrator, Shape, VTKRecorder, Bo1_Sphere_Aabb,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+cy.install_guards()  # these tests check YADE's O.bodies methods as the guards route them
+
 G = 9.81
 
 
@@ -128,26 +128,10 @@ def test_release_refusals_raise_and_change_nothing(scene):
         cy.release(ymids[0], yid)
 
 
-RELEASE_ABORT = textwrap.dedent(
-    """
-    import os, sys
-    os.environ["OMP_NUM_THREADS"] = "1"
-    sys.path.insert(0, {root!r})
-    import yade
-    from yade import utils
-    from yade.wrapper import FrictMat
-    from clumpprops import yade as cy
-    O = yade.O
-    O.materials.append(FrictMat(density=1140.0, label="m"))
-    d = 0.1333
-    # two small spheres inside a big one: the union is the big sphere, the correction minus the small ones
-    spheres = [utils.sphere((0, 0, 0), d / 2, material="m")] + [utils.sphere((0, 0, z), 0.0125, material="m") for z in (-0.01, 0.01)]
-    cid, mids = cy.append_clump(spheres)
-    with cy.unguarded():
-        O.bodies.releaseFromClump(mids[0], cid)
-    print("survived", O.bodies[cid].state.mass, flush=True)
-    """
-)
+RELEASE_ABORT = """
+O.bodies.releaseFromClump(mids[0], cid)  # YADE's own: no guards installed in this process
+print("survived", O.bodies[cid].state.mass, flush=True)
+"""
 
 
 def nested_trimer():
@@ -166,10 +150,7 @@ def test_release_heavy_overlap_never_aborts(scene):
 def test_release_heavy_overlap_negative_control_yade_aborts(tmp_path):
     """YADE's own release aborts the process (``Clump.cpp:241: Assertion 'M > 0' failed``, 2023.02a and
     2025.2): run in a subprocess."""
-    script = tmp_path / "release.py"
-    script.write_text(RELEASE_ABORT.format(root=str(ROOT)))
-    p = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
-                       env=dict(os.environ, OMP_NUM_THREADS="1"))
+    p = run_yade_script(tmp_path, RELEASE_ABORT)
     assert p.returncode == -6 and "M > 0' failed" in p.stderr, (p.returncode, p.stdout[-500:], p.stderr[-500:])
 
 
@@ -700,12 +681,12 @@ def test_refusal_free_recorrection_of_one_sphere_clump(scene):
 
 def test_build_is_verified_against_the_target(scene, monkeypatch):
     """A build whose YADE state does not match the target raises naming the clump."""
-    real = cy._set_correction_state
+    real = build._set_correction_state
 
-    def off_by_a_gram(Y, st, m, p, w, V):
-        real(Y, st, m + 1e-3, p, w, V)
+    def off_by_a_gram(Y, st, m, p, w, q):
+        real(Y, st, m + 1e-3, p, w, q)
 
-    monkeypatch.setattr(cy, "_set_correction_state", off_by_a_gram)
+    monkeypatch.setattr(build, "_set_correction_state", off_by_a_gram)
     yid, _ = O.bodies.appendClumped(make_spheres(*trimer()))
     with pytest.raises(cy.ClumpAdapterError, match=rf"clump #{yid}: YADE's state after the build differs"):
         cy.correct_clump(yid)

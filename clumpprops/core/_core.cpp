@@ -134,7 +134,7 @@ static bool read_numbers(PyObject* seq, std::size_t n, int width, std::vector<do
 }
 
 // (w, x, y, z) of the rotation A = V^T, V row-major with right-handed columns: largest-component
-// branch, as Eigen's Quaternion(Matrix3) and yade._quaternion_one (same branches, same formulas).
+// branch, as Eigen's Quaternion(Matrix3) and the oracle tests/_yade_oracles.quaternion_one (same branches, same formulas).
 static void quaternion_of_axes(const double* V, double* q) {
   // A = V^T: a_ij = V[j][i]
   const double a00 = V[0], a01 = V[3], a02 = V[6], a10 = V[1], a11 = V[4], a12 = V[7], a20 = V[2], a21 = V[5], a22 = V[8];
@@ -157,35 +157,25 @@ static void quaternion_of_axes(const double* V, double* q) {
   for (int k = 0; k < 4; ++k) q[k] = t[k] / n;
 }
 
-// The YADE adapter's single clump (clumpprops/yade.py, append_clump): target properties and the
-// state of the correction member in one call on python sequences, so a small clump costs no numpy
-// array.  The same formulas as yade._correction_one (sums about the target COM; sphere mass
-// rho 4/3 pi r^3, own inertia 0.4 m r^2, as YADE's utils.sphere sets them), with Jacobi for the axes.
-// adapter_clump(method, pts [(x, y, z), ...], radii [...], densities [...], strict) -> None when the
-// input is not plain numbers, the core reports an error, or (strict) the target is not a union of the
-// spheres: the caller's general path then raises the documented error.  Otherwise 34 floats: mass,
-// com (3), inertia (9, row-major), scale (largest |principal moment|), m_c, offset (3), moments (3),
-// axes (9, row-major; right-handed columns), and then the axes' orientation as a quaternion
-// (w, x, y, z) of A = V^T (4): 34 floats.  The target uses the first sphere's density.
-static py::object adapter_clump(int method, py::handle pts, py::handle radii, py::handle densities, bool strict) {
-  const Py_ssize_t n = PyObject_Length(radii.ptr());
-  if (n <= 0) {
-    PyErr_Clear();
-    return py::none();
-  }
-  thread_local std::vector<double> x, r, rho;
-  x.clear();
-  r.clear();
-  rho.clear();
-  if (!read_numbers(pts.ptr(), n, 3, x) || !read_numbers(radii.ptr(), n, 1, r) || !read_numbers(densities.ptr(), n, 1, rho))
-    return py::none();
-  thread_local Engine eng;
-  Result res;
-  if (eng.clump(static_cast<Method>(method), x.data(), r.data(), static_cast<int>(n), rho[0], true, res, true) != clumpprops::kOk)
-    return py::none();
-  const double* c = res.com;
+// The state of a clump's correction member (clumpprops/yade/correction.py): the mass, offset from
+// the target centre of mass, principal moments and axes that make the spheres plus the correction
+// sum, the way YADE's Clump::updateProperties sums them, to a target (mass, com (3), inertia (9,
+// row-major)).  Sums about the target COM; sphere mass rho 4/3 pi r^3, own inertia 0.4 m r^2, as
+// YADE's utils.sphere sets them; Jacobi for the axes.  status: kCorrOk, kCorrHeavy (strict: the
+// target is heavier than the summed spheres, m_s), kCorrOutside (strict: the correction's centroid
+// lies norm from the COM, beyond the clump's reach), kCorrNotFinite.
+enum CorrectionStatus { kCorrOk = 0, kCorrHeavy = 1, kCorrOutside = 2, kCorrNotFinite = 3 };
+
+struct Correction {
+  int status = kCorrOk;
+  double mc = 0, off[3] = {0, 0, 0}, w[3] = {0, 0, 0}, V[9] = {0}, q[4] = {0}, ms = 0, norm = 0, reach = 0;
+};
+
+static Correction correction_of(const double* x, const double* r, const double* rho, Py_ssize_t n, double mass,
+                                const double* c, const double* a, bool strict) {
+  Correction t;
   double ms = 0, sx = 0, sy = 0, sz = 0, ixx = 0, iyy = 0, izz = 0, ixy = 0, ixz = 0, iyz = 0, reach = 0, smd = 0;
-  double sp = 0, spd = 0;  // a density spread's share of m_c and of S (see yade.correction_terms)
+  double sp = 0, spd = 0;  // a density spread's share of m_c and of S (see yade.correction.correction_terms)
   for (Py_ssize_t i = 0; i < n; ++i) {
     const double ri = r[i], mi = rho[i] * ((4.0 / 3.0) * clumpprops::kPi * std::pow(ri, 3.0));
     const double ji = 0.4 * mi * std::pow(ri, 2.0);
@@ -211,48 +201,120 @@ static py::object adapter_clump(int method, py::handle pts, py::handle radii, py
     if (dist > reach) reach = dist;
   }
   const double eps = std::numeric_limits<double>::epsilon();
-  const double mc = res.mass - ms, s_noise = 64.0 * eps * smd + spd;
-  const bool roundoff = std::fabs(mc) * reach <= s_noise;  // no offset (see yade.correction_terms)
+  const double mc = mass - ms, s_noise = 64.0 * eps * smd + spd;
+  const bool roundoff = std::fabs(mc) * reach <= s_noise;  // no offset (see yade.correction.correction_terms)
   const double ox = roundoff ? 0.0 : -sx / mc, oy = roundoff ? 0.0 : -sy / mc, oz = roundoff ? 0.0 : -sz / mc;
-  if (strict) {
-    if (mc > 64.0 * eps * ms + sp) return py::none();
-    const double norm = std::sqrt(ox * ox + oy * oy + oz * oz);
-    if (!roundoff && norm > reach + (reach * 1e-9 + s_noise / std::fabs(mc))) return py::none();
+  t.ms = ms;
+  t.reach = reach;
+  t.norm = std::sqrt(ox * ox + oy * oy + oz * oz);
+  if (strict && mc > 64.0 * eps * ms + sp) {
+    t.status = kCorrHeavy;
+    return t;
   }
-  if (!std::isfinite(mc) || !std::isfinite(ox) || !std::isfinite(oy) || !std::isfinite(oz)) return py::none();
+  if (strict && !roundoff && t.norm > reach + (reach * 1e-9 + s_noise / std::fabs(mc))) {
+    t.status = kCorrOutside;
+    return t;
+  }
+  if (!std::isfinite(mc) || !std::isfinite(ox) || !std::isfinite(oy) || !std::isfinite(oz)) {
+    t.status = kCorrNotFinite;
+    return t;
+  }
   const double osq = ox * ox + oy * oy + oz * oz;
-  const double* a = res.inertia;
   const double j01 = 0.5 * ((a[1] - ixy + mc * (ox * oy)) + (a[3] - ixy + mc * (oy * ox)));
   const double j02 = 0.5 * ((a[2] - ixz + mc * (ox * oz)) + (a[6] - ixz + mc * (oz * ox)));
   const double j12 = 0.5 * ((a[5] - iyz + mc * (oy * oz)) + (a[7] - iyz + mc * (oz * oy)));
   const double J[9] = {a[0] - ixx - mc * (osq - ox * ox), j01, j02, j01, a[4] - iyy - mc * (osq - oy * oy), j12,
                        j02, j12, a[8] - izz - mc * (osq - oz * oz)};
-  double w[3], V[9];
-  clumpprops::eigh3(J, w, V);
+  clumpprops::eigh3(J, t.w, t.V);
+  quaternion_of_axes(t.V, t.q);
+  t.mc = mc;
+  t.off[0] = ox, t.off[1] = oy, t.off[2] = oz;
+  return t;
+}
+
+// m_c, offset (3), moments (3), axes (9, row-major; right-handed columns), orientation (w, x, y, z) of
+// A = V^T (4): the 20 floats both adapter entry points return.
+template <class Put>
+static void put_correction(const Correction& t, Put&& put) {
+  put(t.mc);
+  for (int i = 0; i < 3; ++i) put(t.off[i]);
+  for (int i = 0; i < 3; ++i) put(t.w[i]);
+  for (int i = 0; i < 9; ++i) put(t.V[i]);
+  for (int i = 0; i < 4; ++i) put(t.q[i]);
+}
+
+// The sphere input of both adapter entry points, read into x, r, rho; false if not plain numbers.
+static bool read_spheres(py::handle pts, py::handle radii, py::handle densities, std::vector<double>& x,
+                         std::vector<double>& r, std::vector<double>& rho, Py_ssize_t& n) {
+  n = PyObject_Length(radii.ptr());
+  if (n <= 0) {
+    PyErr_Clear();
+    return false;
+  }
+  x.clear();
+  r.clear();
+  rho.clear();
+  return read_numbers(pts.ptr(), n, 3, x) && read_numbers(radii.ptr(), n, 1, r) &&
+         read_numbers(densities.ptr(), n, 1, rho);
+}
+
+// The YADE adapter's clump (clumpprops/yade/build.py): target properties and the state of the
+// correction member in one call on python sequences, so a clump costs no numpy array.
+// adapter_clump(method, pts [(x, y, z), ...], radii [...], densities [...], strict) -> None when the
+// input is not plain numbers, the core reports an error, or (strict) the target is not a union of the
+// spheres: the caller then asks adapter_correction which error to raise.  Otherwise 34 floats: mass,
+// com (3), inertia (9, row-major), scale (largest |principal moment|), and the 20 of put_correction.
+// The target uses the first sphere's density.
+static py::object adapter_clump(int method, py::handle pts, py::handle radii, py::handle densities, bool strict) {
+  thread_local std::vector<double> x, r, rho;
+  Py_ssize_t n = 0;
+  if (!read_spheres(pts, radii, densities, x, r, rho, n)) return py::none();
+  thread_local Engine eng;
+  Result res;
+  if (eng.clump(static_cast<Method>(method), x.data(), r.data(), static_cast<int>(n), rho[0], true, res, true) != clumpprops::kOk)
+    return py::none();
+  const Correction t = correction_of(x.data(), r.data(), rho.data(), n, res.mass, res.com, res.inertia, strict);
+  if (t.status != kCorrOk) return py::none();
   const double scale = std::max(std::fabs(res.moments[0]), std::max(std::fabs(res.moments[1]), std::fabs(res.moments[2])));
-  double q[4];
-  quaternion_of_axes(V, q);
   PyObject* out = PyTuple_New(34);
   int k = 0;
   auto put = [&](double v) { PyTuple_SET_ITEM(out, k++, PyFloat_FromDouble(v)); };
   put(res.mass);
-  for (int i = 0; i < 3; ++i) put(c[i]);
-  for (int i = 0; i < 9; ++i) put(a[i]);
+  for (int i = 0; i < 3; ++i) put(res.com[i]);
+  for (int i = 0; i < 9; ++i) put(res.inertia[i]);
   put(scale);
-  put(mc);
-  put(ox);
-  put(oy);
-  put(oz);
-  for (int i = 0; i < 3; ++i) put(w[i]);
-  for (int i = 0; i < 9; ++i) put(V[i]);
-  for (int i = 0; i < 4; ++i) put(q[i]);
+  put_correction(t, put);
+  return py::reinterpret_steal<py::object>(out);
+}
+
+// The correction member of a clump against a given target (any method's: the baselines too).
+// adapter_correction(pts, radii, densities, target [mass, com (3), inertia (9, row-major), ...], strict)
+// -> None when the input is not plain numbers; else (status, ...): (0, the 20 floats of
+// put_correction), (1, summed spheres' mass) for a target heavier than its spheres, (2, distance of the
+// correction's centroid from the COM, reach of the clump) for a centroid outside the clump, (3,) for a
+// correction that is not finite.  The caller words the errors (they name the clump).
+static py::object adapter_correction(py::handle pts, py::handle radii, py::handle densities, py::handle target,
+                                     bool strict) {
+  std::vector<double> x, r, rho, tg;
+  Py_ssize_t n = 0;
+  if (!read_spheres(pts, radii, densities, x, r, rho, n) || !read_numbers(target.ptr(), 13, 1, tg, true))
+    return py::none();
+  const Correction t = correction_of(x.data(), r.data(), rho.data(), n, tg[0], &tg[1], &tg[4], strict);
+  if (t.status == kCorrHeavy) return py::make_tuple(static_cast<int>(t.status), t.ms);
+  if (t.status == kCorrOutside) return py::make_tuple(static_cast<int>(t.status), t.norm, t.reach);
+  if (t.status != kCorrOk) return py::make_tuple(static_cast<int>(t.status));
+  PyObject* out = PyTuple_New(21);
+  int k = 0;
+  PyTuple_SET_ITEM(out, k++, PyLong_FromLong(kCorrOk));
+  auto put = [&](double v) { PyTuple_SET_ITEM(out, k++, PyFloat_FromDouble(v)); };
+  put_correction(t, put);
   return py::reinterpret_steal<py::object>(out);
 }
 
 // Relative errors (mass, centre of mass / radius of gyration, inertia / scale) of a rigid body's
 // state row = (mass, x, y, z, moments (3), quaternion x, y, z, w: YADE's order) against a target:
-// the first 14 floats of adapter_clump (mass, com, inertia row-major, scale).  The twin of
-// yade._errors_one; a NaN anywhere gives a NaN error (never a pass).
+// the first 14 floats of adapter_clump (mass, com, inertia row-major, scale); tests compare it with
+// the oracle tests/_yade_oracles.errors_one; a NaN anywhere gives a NaN error (never a pass).
 static py::tuple state_errors(py::handle row_obj, py::handle target_obj) {
   std::vector<double> row, t;
   if (!read_numbers(row_obj.ptr(), 11, 1, row)) throw std::invalid_argument("state_errors: row must be 11 numbers");
@@ -285,6 +347,7 @@ PYBIND11_MODULE(_core, mod) {
   mod.def("run", &run);
   mod.def("principal", &principal);
   mod.def("adapter_clump", &adapter_clump);
+  mod.def("adapter_correction", &adapter_correction);
   mod.def("state_errors", &state_errors);
   mod.attr("EXACT") = static_cast<int>(clumpprops::kExact);
   mod.attr("PAIRWISE") = static_cast<int>(clumpprops::kPairwise);

@@ -1,0 +1,260 @@
+"""The report's tables and records: what every section of ``results/README.md`` states, read or
+computed from the results files and the run records, with no words (:mod:`studies.report.answers`
+and the templates make the sentences).
+
+Reads ``results/granular_gas/*.csv`` (the paper's Fig. 2), the run records of the headline's specs
+(:func:`planned`: records read and designs planned once), and computes the paper's share of the
+sphere-clump gap (:func:`paper_share`) and the same-spin runs' drift-corrected effects
+(:func:`same_spin_rows`).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from .. import design, effects, effects_plots, rates
+from .. import spec as S
+from ..estimators import MIN_PAIRS
+
+
+def read_json(path):
+    """The JSON document at ``path``, or None if there is none (a section then says so)."""
+    if not os.path.exists(path):
+        return None
+    with open(path) as fh:
+        return json.load(fh)
+
+
+def uncorrected_share(results):
+    """The uncorrected row of ``granular_gas/ratio_D.csv`` (the paper's "about 10 %"), or None."""
+    rd = os.path.join(results, "granular_gas", "ratio_D.csv")
+    if not os.path.exists(rd):
+        return None
+    q = pd.read_csv(rd)
+    u = q[q.case == "uncorrected"]
+    return u.iloc[0] if len(u) else None
+
+
+def fig2_tables(results):
+    """(params, summary, paired differences) of the paper's Fig. 2 (``results/granular_gas/``), or
+    None without its ``diff_D.csv``; a table without its ``params.json`` is refused, not guessed."""
+    d = os.path.join(results, "granular_gas")
+    if not os.path.exists(os.path.join(d, "diff_D.csv")):
+        return None
+    p = read_json(os.path.join(d, "params.json"))
+    if p is None:
+        raise FileNotFoundError(f"{d}/diff_D.csv has no params.json beside it: the parameters that made it are lost")
+    return p, pd.read_csv(os.path.join(d, "summary.csv")), pd.read_csv(os.path.join(d, "diff_D.csv"))
+
+
+def first_version_row(results):
+    """The first version's uncorrected vs exact row of ``granular_gas/diff_D.csv`` (paired), or None."""
+    d = os.path.join(results, "granular_gas", "diff_D.csv")
+    if not os.path.exists(d):
+        return None
+    diff = pd.read_csv(d)
+    u = diff[(diff.case == "uncorrected") & (diff.protocol == "paired")]
+    return u.iloc[0] if len(u) else None
+class Planned(NamedTuple):
+    """One spec's finished records (by run key) and, for a spec with sequential groups, the status of
+    each group from :func:`design.plan` (empty for a spec without targets)."""
+    spec: dict
+    records: dict
+    status: dict
+
+
+def planned(specs):
+    """[:class:`Planned`] of every spec: each spec's records read and its design planned once, for
+    every section of the report."""
+    out = []
+    for sp in specs:
+        rdir = S.results_dir(sp)
+        recs = design.load_records(sp, rdir) if os.path.isdir(rdir) else {}
+        status = design.plan(sp, rdir, recs)[1] if any(g.get("target") for g in sp["groups"]) else {}
+        out.append(Planned(sp, recs, status))
+    # a question before the end of its pilot (MIN_PAIRS pairs; below 2 it has no interval of its
+    # own): projected also from one with pairs that differs only in stiffness, run length or time
+    # step (design.prior_projection), so that its budget can be judged before its own spread is
+    refs = [(sp, gi, st, recs) for sp, recs, status in out for gi, st in status.items()]
+    for sp, _, status in out:
+        for gi, st in status.items():
+            if st["n"] < 2:
+                st["prior"] = design.prior_projection(sp, gi, refs)
+            elif st["n"] < MIN_PAIRS and st["state"] == "running":     # a second opinion, from a full pilot only
+                pr = design.prior_projection(sp, gi, refs)
+                if pr is not None and pr["ref_pairs"] >= MIN_PAIRS:
+                    st["prior"] = pr
+    return out
+
+
+def status_rows(plans):
+    """(spec, group, status, CPU-hours spent) of every sequential group, those of a spec not started
+    yet included (no records: 0 pairs, 0 CPU-hours); ``plans``: :func:`planned` of the specs."""
+    out = []
+    for sp, recs, status in plans:
+        for gi, st in status.items():
+            out.append((sp, sp["groups"][gi], st, design.cpu_hours(recs)))
+    return out
+
+
+def same_spin_pairs(sp, settle_s=200.0, recs=None):
+    """Per seed, for each non-exact case of a ``spin_pairing = "same"`` spec: D_case/D_exact (Green-Kubo)
+    and the ratio r of the case's translational kinetic energy per unit mass to exact's after
+    ``settle_s`` (the thermal speed squared the gas relaxed to).  {case: [(seed, D ratio, r)]}.
+    ``recs``: the spec's records, if already read."""
+    if recs is None:
+        rdir = S.results_dir(sp)
+        if not os.path.isdir(rdir):
+            return {}
+        recs = design.load_records(sp, rdir)
+    by = {}
+    for rec in recs.values():
+        if not rec["checks"]["ok"]:
+            continue
+        e = rec["energy"]
+        t = np.asarray(e["t"])
+        late = t >= settle_s
+        v2 = float(np.mean(np.asarray(e["e_trans"])[late])) / rec["case_body"]["mass"]
+        d = design.run_d(rec, sp["analysis"]["t_eq"], stderr=False)["D"]
+        by.setdefault(rec["seed"], {})[rec["case"]] = (d, v2)
+    out = {}
+    for seed, cases in sorted(by.items()):
+        if "exact" not in cases:
+            continue
+        for case, (d, v2) in cases.items():
+            if case != "exact":
+                out.setdefault(case, []).append((seed, d / cases["exact"][0], v2 / cases["exact"][1]))
+    return out
+
+
+def paper_share(specs, shape="dimer", overlap=0.5, youngs_modulus=1e7, values=None):
+    """The paper's "about 10 %" from the equilibrated runs: (D_uncorrected - D_exact) / (D_spheres - D_exact)
+    as mean(a) / mean(b), a = per-seed D_uncorrected/D_exact - 1 of the paired runs, b = per-seed
+    D_spheres/D_exact - 1 of the sphere gas against exact, with Fieller's 95 % interval
+    (studies.estimators.fieller_ratio, which takes a and b independent; coverage checked in the
+    tests).  Independence: an exact run's initial state (:func:`studies.effects.state_key`, seed) is
+    in at most one of the two samples; a seed whose state both use (the same exact run, or the same
+    start at another time step or run length) is left out of the larger sample (``n_dropped``).
+    None without two pairs of each.  ``values``: :func:`studies.effects.paired_values` of
+    ``specs``, if already read."""
+    from ..estimators import fieller_ratio
+
+    values = effects.paired_values(specs) if values is None else values
+
+    def best(case):
+        c = [pv for pv in values if pv.case == case and pv.protocol == "paired" and _is(pv.facts)]
+        return max(c, key=lambda pv: len(pv.values)) if c else None
+
+    def _is(p):
+        return (p["shape"]["definition"].get("kind") == shape
+                and p["shape"]["definition"].get("overlap") == overlap
+                and float(p["material"]["youngs_modulus"]) == youngs_modulus and p["gas"].get("start") == "equipartition")
+
+    na_, nb_ = best("uncorrected"), best("spheres")
+    if na_ is None or nb_ is None:
+        return None
+    shared = set(na_.exact_states) & set(nb_.exact_states)
+    a, b = list(na_.values), list(nb_.values)
+    if shared:                                  # not independent: drop them from the larger sample
+        if len(a) >= len(b):
+            a = [v for v, st in zip(na_.values, na_.exact_states) if st not in shared]
+        else:
+            b = [v for v, st in zip(nb_.values, nb_.exact_states) if st not in shared]
+    if len(a) < 2 or len(b) < 2:
+        return None
+    th, lo, hi, _, na, nb = fieller_ratio(a, b)
+    return {"share": th, "low": lo, "high": hi, "n_num": na, "n_gap": nb, "gap": float(np.mean(b)),
+            "n_dropped": len(shared), "shape": shape, "youngs_modulus": youngs_modulus}
+
+
+def effect_row(effect_rows, protocol, case="uncorrected", shape="dimer", overlap="0.5", youngs_modulus=1e7):
+    r = [e for e in effect_rows if e["shape"] == shape and str(e["overlap"]) == overlap and e["protocol"] == protocol
+         and e["case"] == case and float(e["youngs_modulus"]) == youngs_modulus and e["n_pairs"] >= 2]
+    return max(r, key=lambda e: e["n_pairs"]) if r else None
+
+
+def map_rows(m):
+    return {(r["case"], r["protocol"]): r for r in m["rows"]}
+
+
+def paper_maps(maps):
+    """The paper's dimer's collision maps by Young's modulus: {E: {(case, protocol): row}}."""
+    return {m["material"]["youngs_modulus"]: map_rows(m) for m in maps if effects_plots.is_paper_dimer(m)}
+
+
+def measured(effect_rows, shape, e_mod, case, protocol):
+    for r in effect_rows:
+        if (r["shape"] == shape["kind"] and str(r["overlap"]) == str(shape.get("overlap", ""))
+                and float(r["youngs_modulus"]) == float(e_mod) and r["case"] == case and r["protocol"] == protocol):
+            return r
+    return None
+
+
+def hard_times_k2(ee, k2_part):
+    """Equal energy: the hard-particle mass scaling times one plus the paired k² part, - 1.  At one kT
+    a Hertz gas with every mass scaled by lambda is the same gas in time scaled by lambda^1/2, so the
+    contact's softness drops out of the equal-energy ratio and what is left beside the mass scaling
+    is the collisions' k² effect (the paired uncorrected - mass_scaled)."""
+    return (1.0 + ee["hard_particles"]) * (1.0 + k2_part) - 1.0
+
+
+def map_of_group(maps, sp, g, case):
+    """(collision map, effective protocol) of a group's gas for ``case`` (studies/maps.py; the
+    same shape, material and energy: :func:`studies.rates.map_matches`), or (None, None).  A map
+    is of a gas in equipartition at each case's own temperature, so a spec that gives every case
+    exact's spins (``spin_pairing = "same"``) has none."""
+    p = S.resolve_run(sp, g, case, g["seeds"][0])
+    if S.spin_pairing_of(p) == "same":
+        return None, None
+    m = next((m for m in maps if rates.map_matches(m, p)), None)
+    return m, (None if m is None else p["protocol"])
+
+
+def readable_specs():
+    """(specs, failures): the headline's specs (:data:`studies.effects.HEADLINE`) whose spec loads
+    and whose records can be read and planned, and [(name, one-line error)] of the others, so that one
+    broken study is reported in its own section and never stops the report of the rest.  Each spec is
+    tried alone first (its records read and paired once more than the report needs: seconds, for a
+    report that never stops on one study)."""
+    specs, failures = [], []
+    for name in effects.HEADLINE:
+        try:
+            sp = effects.results_specs(names=(name,))[0]
+            planned([sp])
+            effects.paired_values([sp])
+        except (ValueError, OSError) as e:        # SpecError is a ValueError
+            failures.append((name, f"{type(e).__name__}: {e}".splitlines()[0]))
+            continue
+        specs.append(sp)
+    return specs, failures
+
+
+
+
+def same_spin_rows(specs, records=None):
+    """The superseded same-spin runs, one dict a case of each ``spin_pairing = "same"`` spec with an
+    equipartition start and two or more pairs: the measured effect (``m, lo, hi`` over ``n`` seed
+    pairs), the thermal-speed drift the spin pairing caused (``dm, dlo, dhi``: sqrt of the energy
+    ratio - 1) and the effect with that drift divided out (``cm, clo, chi``: hard-particle scaling
+    D ~ thermal speed), each a t-interval over seeds.  ``records``: each spec's records in the
+    order of ``specs``, if already read."""
+    from ..estimators import t_interval
+
+    out = []
+    for i, sp in enumerate(specs):
+        if sp["gas"].get("spin_pairing") != "same" or sp["gas"].get("start") != "equipartition":
+            continue
+        for case, vals in same_spin_pairs(sp, recs=None if records is None else records[i]).items():
+            if len(vals) < 2:
+                continue
+            m, lo, hi, _, n = t_interval([v - 1.0 for _, v, _ in vals])
+            dm, dlo, dhi, _, _ = t_interval([math.sqrt(r) - 1.0 for _, _, r in vals])
+            cm, clo, chi, _, _ = t_interval([v / math.sqrt(r) - 1.0 for _, v, r in vals])
+            out.append({"shape": sp["groups"][0]["shape"], "case": case, "study": sp["study"]["name"], "n": n,
+                        "m": m, "lo": lo, "hi": hi, "dm": dm, "dlo": dlo, "dhi": dhi, "cm": cm, "clo": clo, "chi": chi})
+    return out
