@@ -3,7 +3,7 @@
 Synthetic data with known answers (Ornstein-Uhlenbeck walkers, a relaxing energy share with
 correlated noise), fixed seeds.  The statistical checks run a scaled-down gas (128 walkers,
 tau = 5 s, 16 tau per run: the study's 400 s / 25 s) so that 250 replicas take seconds;
-``benchmarks/bench_estimator.py`` runs the full size.  Each statistical test also checks
+``python -m studies estimator-validation`` runs the full size.  Each statistical test also checks
 that its criterion rejects a wrong estimator (the test can fail).
 """
 import math
