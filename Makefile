@@ -6,7 +6,8 @@ VENV_D13 ?= .venv-debian13
 PY := $(VENV)/bin/python
 D13 := bash scripts/debian13.sh
 PYTEST_ARGS ?= -q
-.PHONY: setup run test test-native test-debian13 setup-debian13 test-wheel docs test-fast test-random fuzz test-core asan bench example paper
+.PHONY: setup run test test-native test-debian13 setup-debian13 test-wheel docs test-fast test-random fuzz test-core asan bench example paper \
+	science science-timestep science-maps science-estimator science-engines science-pairing
 setup:
 	@VENV=$(VENV) bash scripts/setup.sh
 # main job: the worked example, then the paper's Fig. 2 at the quick scale (10 runs of 250 s on 2 cores: 9 min measured in a fresh clone on idle cores, 19-33 min beside make test or study sweeps)
@@ -71,17 +72,42 @@ asan: setup
 	  $(PY) -m pytest -q -p no:cacheprovider $(ASAN_TESTS)
 example: setup
 	$(PY) examples/paper_dimer.py
-# bench_timestep.py: with the arguments its committed JSON files record in "argv" (--workdir aside;
-# tests/test_timestep.py checks)
+# the speed and memory benchmarks (docs/benchmarks.md): each writes its figures to benchmarks/results/
 bench: setup
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_core.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_massprops.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_yade_build.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_gas.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_io.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/engine_errors.py
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --factors-of trimer=0.0625,0.25,0.5,1.0,1.5,2.0 --bias 400,8 --bias-factors 0.5,1.0,1.5
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes tetra --factors-of tetra=0.0625,0.25,0.5,1.0,1.5,2.0 --gas-factors 0.5,1.0,1.5 --out benchmarks/results/timestep_tetra.json
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e8 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.25,1.58 --out benchmarks/results/timestep_E1e8.json
-	OMP_NUM_THREADS=1 $(PY) benchmarks/bench_timestep.py --shapes dimer --youngs-modulus 1e9 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.58,2.0 --out benchmarks/results/timestep_E1e9.json
-	OMP_NUM_THREADS=1 $(PY) benchmarks/pair_correlation.py > benchmarks/results/pair_correlation.txt && cat benchmarks/results/pair_correlation.txt
+	OMP_NUM_THREADS=1 $(PY) -m benchmarks.bench_core
+	OMP_NUM_THREADS=1 $(PY) -m benchmarks.bench_massprops
+	OMP_NUM_THREADS=1 $(PY) -m benchmarks.bench_yade_build
+	OMP_NUM_THREADS=1 $(PY) -m benchmarks.bench_gas
+	OMP_NUM_THREADS=1 $(PY) -m benchmarks.bench_io
+# the studies beside the gas sweeps whose records are committed under results/ (docs/benchmarks.md,
+# "Studies"; CPU-hours: the time-step study ~17 CPU-min per shape and stiffness, the collision maps
+# 1-3 CPU-h each, the estimator's validation ~10 CPU-h).  The time-step study runs with the
+# arguments its committed files record in "argv" (--workdir and --out aside; tests/test_timestep.py
+# checks); the aspherical shapes run YADE 2025.2 in the Debian 13 root (scripts/debian13.sh)
+science: science-timestep science-maps science-estimator science-engines science-pairing
+science-timestep: setup
+	OMP_NUM_THREADS=1 $(PY) -m studies timestep --factors-of trimer=0.0625,0.25,0.5,1.0,1.5,2.0 --bias 400,8 --bias-factors 0.5,1.0,1.5
+	OMP_NUM_THREADS=1 $(PY) -m studies timestep --shapes tetra --factors-of tetra=0.0625,0.25,0.5,1.0,1.5,2.0 --gas-factors 0.5,1.0,1.5 --out results/timestep/timestep_tetra.json
+	OMP_NUM_THREADS=1 $(PY) -m studies timestep --shapes dimer --youngs-modulus 1e8 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.25,1.58 --out results/timestep/timestep_E1e8.json
+	OMP_NUM_THREADS=1 $(PY) -m studies timestep --shapes dimer --youngs-modulus 1e9 --factors 0.125,0.25,0.5,1.0,1.25,1.58,2.0 --gas-factors 1.0,1.58,2.0 --out results/timestep/timestep_E1e9.json
+# the collision maps with the arguments their files record (results/collision_map/*.json, "argv")
+CM := OMP_NUM_THREADS=1 $(PY) -m studies case-map
+CM_OUT := results/collision_map
+science-maps: setup
+	$(CM) --pairs 10000 --out $(CM_OUT)/case_map.json
+	$(CM) --pairs 4000 --youngs-modulus 1e8 --out $(CM_OUT)/case_map_E1e8.json
+	$(CM) --pairs 4000 --youngs-modulus 1e9 --out $(CM_OUT)/case_map_E1e9.json
+	for d in 0.25 0.375 0.625 0.75; do $(CM) --pairs 4000 --overlap $$d --out $(CM_OUT)/case_map_d$$d.json || exit 1; done
+	for s in tetrahedron trimer_triangle; do \
+	  $(CM) --pairs 4000 --shape $$s --out $(CM_OUT)/case_map_$$s.json && \
+	  $(CM) --pairs 4000 --shape $$s --youngs-modulus 1e9 --out $(CM_OUT)/case_map_$${s}_E1e9.json || exit 1; done
+# the estimator: on Ornstein-Uhlenbeck walkers, the hard-sphere gas's VACF and the Boltzmann VACF
+science-estimator: setup
+	OMP_NUM_THREADS=1 $(PY) -m studies estimator-validation > results/estimator/estimator.txt && cat results/estimator/estimator.txt
+	OMP_NUM_THREADS=1 $(PY) -m studies vacf-shape
+	OMP_NUM_THREADS=1 $(PY) -m studies gk-boltzmann --runs 300 --ref-chains 8000
+# what LIGGGHTS and LAMMPS compute for a clump on their own (a script among the engine tests' helpers)
+science-engines: setup
+	OMP_NUM_THREADS=1 $(PY) tests/engine_errors.py
+science-pairing: setup
+	OMP_NUM_THREADS=1 $(PY) -m studies pair-correlation > results/pairing/pair_correlation.txt && cat results/pairing/pair_correlation.txt

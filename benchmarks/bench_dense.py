@@ -1,6 +1,6 @@
 """Dense clumps: time and peak memory of the exact method where every sphere overlaps every other.
 
-Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_dense.py [--before DIR] [--shell 100,200,400]
+Run:  OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_dense [--before DIR] [--shell 100,200,400]
                                                                    [--identical 1000,10000,100000]
 
 Cases (each in its own process, so that its peak memory is its own):

@@ -16,7 +16,7 @@
 4. MSD analysis cost vs trajectory length T (864 particles): the FFT routine against the
    O(T^2) definition; fitted exponents.
 
-    .venv/bin/python benchmarks/bench_gas.py [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
+    .venv/bin/python -m benchmarks.bench_gas [--t-end 20] [--repeats 2] [--n-runs 8] [--skip-yade]
                                              [--parts recording,collider,correction,driver,msd]
 
 Writes benchmarks/results/bench_gas.json (the parts run replace theirs; the others are kept) and
@@ -30,7 +30,6 @@ import copy
 import json
 import os
 import subprocess
-import sys
 import tempfile
 import time
 import tomllib
@@ -38,10 +37,11 @@ import tomllib
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-from studies import engine, runner  # noqa: E402
-from studies import spec as S  # noqa: E402
-from studies.correlation import msd_bruteforce, msd_fft  # noqa: E402
+from studies import engine
+from studies import spec as S
+from studies.correlation import msd_bruteforce, msd_fft
+
+from .harness import read, write
 
 SCRIPT = os.path.join(ROOT, "yade_scripts", "granular_gas.py")
 
@@ -168,11 +168,7 @@ def main():
         ap.error(f"unknown parts: {', '.join(sorted(unknown))}")
     if a.skip_yade:
         parts &= {"msd"}
-    out_path = os.path.join(ROOT, "benchmarks", "results", "bench_gas.json")
-    res = {}
-    if os.path.exists(out_path):
-        with open(out_path) as f:
-            res = json.load(f)
+    res = read("bench_gas.json")      # the parts not run keep their figures
     stamp = {"machine": os.uname().nodename, "cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg(),
              "date": time.strftime("%Y-%m-%d %H:%M")}
     res.setdefault("runs_of_parts", {}).update({p: stamp for p in sorted(parts)})
@@ -195,9 +191,7 @@ def main():
     if "msd" in parts:
         rows, ef, eb = bench_msd()
         res.update(msd=rows, msd_fft_exponent=ef, msd_bruteforce_exponent=eb)
-    os.makedirs(os.path.dirname(out_path), exist_ok=True)
-    with open(out_path, "w") as f:
-        json.dump(res, f, indent=1, default=float)
+    write("bench_gas.json", res, default=float)
     print("\n| benchmark | result |\n|---|---|")
     for r in res.get("recording", []):
         print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | recorded {r['steps_per_s_recorded']:.0f} "

@@ -1,6 +1,6 @@
 """Export speed: 10^5 clumps to every engine (a printed figure, not a timed test).
 
-    .venv/bin/python benchmarks/bench_io.py [--n 100000] [--spheres 2]
+    .venv/bin/python -m benchmarks.bench_io [--n 100000] [--spheres 2]
 
 Random clumps (the paper's dimer shape, d = 0.1333 m, D = d/2, randomly placed and
 oriented; with --spheres K > 2, K overlapping spheres) are written to a YADE textClumps
@@ -11,7 +11,7 @@ file (or folder) per clump (LIGGGHTS sphere files, LAMMPS molecule files, DEME C
 MClump folders), whose cost is file creation.  Prints seconds per stage and writes
 benchmarks/results/io.json.
 
-    .venv/bin/python benchmarks/bench_io.py --read-lines 1000000 [--formats textclumps,yade,...]
+    .venv/bin/python -m benchmarks.bench_io --read-lines 1000000 [--formats textclumps,yade,...]
 
 measures the readers instead: one file of N spheres per format (textClumps with dimers and
 as one N-sphere clump, CSV, LIGGGHTS, MClump, LAMMPS .mol), each read in a fresh process
@@ -34,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from clumpprops.io import Clump, compute, export, read  # noqa: E402
+from clumpprops.io import Clump, compute, export, read
+
+from .harness import write
 
 
 def make_clumps(n, k, seed=1):
@@ -145,9 +146,7 @@ def bench_read(n, formats):
               f"{s['peak_bytes'] / size:5.1f} | {s['seconds'] / v['seconds']:7.1f}x {s['peak_bytes'] / v['peak_bytes']:5.1f}x")
     res["load_average_1min"] = os.getloadavg()[0]
     print(f"  (load average {res['load_average_1min']:.1f} on {os.cpu_count()} cores)")
-    outdir = Path(__file__).resolve().parent / "results"
-    outdir.mkdir(exist_ok=True)
-    (outdir / "io_read.json").write_text(json.dumps(res, indent=1) + "\n")
+    write("io_read.json", res)
 
 
 def main():
@@ -205,11 +204,9 @@ def main():
             print(f"  read + compute + {k:41s} {total + v:7.2f} s  cpu {ctotal + res['cpu_seconds'][k]:6.2f} s")
     res["load_average_1min"] = os.getloadavg()[0]
     print(f"  (load average {res['load_average_1min']:.1f} on {os.cpu_count()} cores)")
-    outdir = Path(__file__).resolve().parent / "results"
-    outdir.mkdir(exist_ok=True)
     res["when"] = time.strftime("%Y-%m-%d %H:%M")
     res["cpu"] = os.cpu_count()
-    (outdir / f"io{'' if args.spheres == 2 else f'_{args.spheres}'}.json").write_text(json.dumps(res, indent=1) + "\n")
+    write(f"io{'' if args.spheres == 2 else f'_{args.spheres}'}.json", res)
 
 
 if __name__ == "__main__":

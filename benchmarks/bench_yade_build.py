@@ -1,7 +1,7 @@
 """Cost of building exact YADE clumps vs YADE's own appendClumped, measured in one run.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_yade_build.py            # 10^4 dimers, 10^3 20-sphere clumps
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_yade_build.py --quick    # 10x fewer
+    OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_yade_build            # 10^4 dimers, 10^3 20-sphere clumps
+    OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_yade_build --quick    # 10x fewer
 
 For each clump set (the same clumps in every variant, each variant in a fresh scene) it times
 the whole build a user runs: creating the sphere bodies (``utils.sphere``) and clumping them,
@@ -26,7 +26,6 @@ import sys
 import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import numpy as np
 import yade
@@ -35,6 +34,8 @@ from yade.wrapper import FrictMat
 
 import clumpprops
 from clumpprops import yade as cy
+
+from .harness import write
 
 O = yade.O
 RHO = 1140.0
@@ -164,12 +165,7 @@ def main():
     out["clumps20"] = bench("20-sphere clumps (triple overlaps)", big_clumps(1_000 // f, rng), repeat=a.repeat)
     out["loadavg_end"] = os.getloadavg()
     if not a.quick:
-        import json
-
-        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "yade_build.json")
-        with open(path, "w") as fh:
-            json.dump(out, fh, indent=1)
-        print("written", path)
+        write("yade_build.json", out)
 
 
 if __name__ == "__main__":

@@ -12,10 +12,23 @@
 
 SPEC is a study spec (``studies/specs/*.toml``; a bare name like ``quick`` means
 ``studies/specs/quick.toml``).
+
+The studies beside the gas sweeps, each with its own options (``python -m studies NAME --help``):
+
+    timestep              time-step convergence: collision maps and gas energy drift (results/timestep/)
+    case-map              each case's effect on D from binary collisions (results/collision_map/)
+    gk-sensitivity        D of committed runs under other Green-Kubo truncations and tail fits (printed)
+    gk-boltzmann          the estimator on the linear Boltzmann equation's VACF (results/estimator/)
+    vacf-shape            the hard-sphere gas's VACF shape and the tail fit (results/estimator/)
+    estimator-validation  the estimators on Ornstein-Uhlenbeck walkers with known D (results/estimator/)
+    pair-correlation      the correlation over seeds of D in paired runs (printed; results/pairing/)
+
+``make science`` reruns those that write results (CPU-hours; docs/benchmarks.md lists them).
 """
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import time
@@ -30,7 +43,16 @@ def _spec_path(name):
     return p if os.path.exists(p) else name
 
 
+# python -m studies NAME ...: the module whose main(argv) runs study NAME
+STUDIES = {"timestep": ".timestep.study", "case-map": ".maps", "gk-sensitivity": ".gk_sensitivity",
+           "gk-boltzmann": ".gk_boltzmann", "vacf-shape": ".vacf_shape",
+           "estimator-validation": ".estimator_validation", "pair-correlation": ".pair_correlation"}
+
+
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in STUDIES:
+        return importlib.import_module(STUDIES[argv[0]], __package__ or "studies").main(argv[1:]) or 0
     ap = argparse.ArgumentParser(prog="python -m studies", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare", "plan"))

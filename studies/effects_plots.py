@@ -49,7 +49,7 @@ def _read(path):
 
 
 def read_collision_maps(results):
-    """The collision-map predictions under ``results``/collision_map/ (benchmarks/case_map.py): a list
+    """The collision-map predictions under ``results``/collision_map/ (studies/maps.py): a list
     of dicts (shape, material, pairs_used, rows: case, protocol, relative, se, hard_particles, ...),
     each with its file name under ``file``, by overlap and Young's modulus."""
     import json
@@ -128,7 +128,7 @@ def _effects_figure(plt, eff, maps, results):
         x = np.linspace(max(min(0.0, xm.min()) - 2, -50), xm.max() + 2, 200)
         axes[0].plot(x, 100 * ((1 + x / 100) ** -0.5 - 1), "k--", lw=1,
                      label="equal energy, hard particles: (1 + mass error)^(-1/2) − 1")
-    if maps:   # kinetic-theory predictions (benchmarks/case_map.py), the left panel only
+    if maps:   # kinetic-theory predictions (studies/maps.py), the left panel only
         xs = [100 * r["mass_error"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]
         ys = [100 * r["relative"] for m in maps for r in m["rows"] if r["case"] != "mass_scaled"]
         axes[0].plot(xs, ys, "kx", ms=6, label="collision-map prediction (each case, shape, E)")

@@ -1,5 +1,5 @@
 """The gas's velocity relaxation time against the collision map's: where a gas and the binary
-collisions behind the map (benchmarks/case_map.py) agree, and where not (issue 12).
+collisions behind the map (studies/maps.py) agree, and where not (issue 12).
 
 In a dilute gas a body's velocity autocorrelation starts as exp(-t/tau), and 1/tau (the collision
 rate times the mean fractional momentum loss per collision) is set by binary collisions alone: it
@@ -59,7 +59,7 @@ def _same(a, b):
 
 
 def map_matches(m, p):
-    """Whether collision map ``m`` (benchmarks/case_map.py's file) is of the gas of run parameters
+    """Whether collision map ``m`` (studies/maps.py's file) is of the gas of run parameters
     ``p``: the same shape (kind, overlap, sphere diameter), density, Young's modulus, Poisson ratio
     (where the map states it) and energy per particle."""
     ms, sh, mm, pm = m.get("shape", {}), p["shape"]["definition"], m.get("material", {}), p["material"]

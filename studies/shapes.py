@@ -192,7 +192,7 @@ def k2_error(shape, density, mass="sum", inertia="sum"):
     turn the clump about: a linear clump's two transverse axes (its axial moment never enters
     its motion: a frictionless contact's force passes through a member's centre, on the axis),
     all three axes otherwise, i.e. tr(I)/3.  For a dimer this is I_perp/m, the number the
-    collision maps report as "largest moment over mass" (benchmarks/case_map.py).  The summed
+    collision maps report as "largest moment over mass" (studies/maps.py).  The summed
     clump's I is eq. 6 of the paper without its overlap term; the exact one, eqs. 3-7.
     Dimensionless."""
     p = properties(shape, density)

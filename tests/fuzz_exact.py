@@ -2,6 +2,9 @@
 
     .venv/bin/python tests/fuzz_exact.py [--clumps 10000] [--seed 0] [--reference 0]
 
+(as a script: Python puts tests/ on sys.path, where the slicing reference lives; clumpprops is the
+installed package, the repository's own in the editable install ``make setup`` makes.)
+
 Every clump is built from a few random spheres and then one to three degeneracies:
 external and internal tangency (exact in floating point, and off by 1e-16 .. 1e-9),
 exactly coincident spheres, near-coincident spheres (offsets 10^-300 .. 10^-6 of the
@@ -34,16 +37,12 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-import clumpprops  # noqa: E402
-from clumpprops import mass_properties  # noqa: E402
+import clumpprops
+from clumpprops import mass_properties
 
 TOL = 1e-12
 REFERENCE_MAX_SPHERES = 20  # the slicing reference takes minutes on the dense clusters: it sees the others

@@ -30,7 +30,7 @@ converges geometrically on every piece (epsrel 1e-13, epsabs 1e-16 in units wher
 the clump has size ~1).  All ten components are integrated with the same nodes (one
 cross-section evaluation is cached and shared).
 
-Achieved accuracy (measured, see benchmarks/exact_accuracy.py): relative ~1e-14 to
+Achieved accuracy (measured, see tests/exact_accuracy.py): relative ~1e-14 to
 1e-13 on volume, centre of mass and inertia tensor, limited by round-off in the
 arc angles (acos near tangencies) and in the sum over pieces; the quad error estimates
 are ~1e-15 relative.  The work grows with the number of pieces (~ number of triple

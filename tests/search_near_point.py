@@ -3,6 +3,10 @@
     OMP_NUM_THREADS=1 .venv/bin/python tests/search_near_point.py [--kind near_coplanar] [--clumps 3000]
         [--seed 0] [--offsets -12 -6] [--reference 3] [--worst 5] [--json out.json]
 
+(as a script: Python puts tests/ on sys.path, so the test module it reuses finds its own helpers as
+under pytest; clumpprops is the installed package, the repository's own in the editable install
+``make setup`` makes.)
+
 Draws clumps with ``_through_one_point(rng, kind)`` (kinds "collinear", "coplanar", "near_coplanar":
 3-5 spheres whose surfaces pass through one point p, centres near one line / in one plane / within
 10^U(-12, -6) rad of one plane through p, plus 0-3 general spheres) and measures each one's change
@@ -23,10 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from test_exact_degenerate import _through_one_point, exact, extent, motion_error, rel, slicing_ref  # noqa: E402
+from test_exact_degenerate import _through_one_point, exact, extent, motion_error, rel, slicing_ref
 
 
 def search(kind="near_coplanar", n_clumps=3000, seed=0, offsets=(-12.0, -6.0)):

@@ -1,15 +1,14 @@
-"""benchmarks/case_map.py: the ratio estimator of the collision-map prediction, on synthetic
+"""studies/maps.py (python -m studies case-map): the ratio estimator of the collision-map prediction, on synthetic
 collisions with a known answer (no YADE), and the per-case states it builds."""
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-import case_map as cm  # noqa: E402
+from studies import gas_model as gm
+from studies import maps as cm
+from studies import shapes as shp
+from studies.timestep import collisions as tc
 
 
 def _collisions(rng, n, c):
@@ -79,8 +78,8 @@ def test_case_states_follow_the_gas_study(kind):
     by axis; equal energy: velocities scaled by sqrt(m_e/m_c); mass_scaled: mass and moments scaled
     alike (aspherical: the exact build's moments times moment_scale)."""
     shape = {"kind": kind, "sphere_diameter": 0.1333, "overlap": 0.5}
-    props = cm.bt.shp.properties(shape, 1140.0)
-    base = cm.bt.make_pairs(shape, 50, 3)
+    props = shp.properties(shape, 1140.0)
+    base = tc.make_pairs(shape, 50, 3)
     m_e = base["body"]["mass"]
     I_e = np.diag(props["exact"]["inertia"])
     v = np.asarray(base["vel"])
@@ -94,7 +93,7 @@ def test_case_states_follow_the_gas_study(kind):
     for case, prot in cm.CASES:
         inp, ktm = cm.case_input(base, shape, case, prot)
         m_c = inp["body"]["mass"]
-        I_c = I_e * m_c / m_e if case == "mass_scaled" else np.diag(props[cm.bt.gm.CASE_SOURCES[case][1]]["inertia"])
+        I_c = I_e * m_c / m_e if case == "mass_scaled" else np.diag(props[gm.CASE_SOURCES[case][1]]["inertia"])
         vc = np.asarray(inp["vel"])
         if prot == "paired":
             np.testing.assert_array_equal(vc, v)

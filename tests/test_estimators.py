@@ -3,14 +3,10 @@
 Synthetic data with known answers (Ornstein-Uhlenbeck walkers, a relaxing energy share with
 correlated noise), fixed seeds.  The statistical checks run a scaled-down gas (128 walkers,
 tau = 5 s, 16 tau per run: the study's 400 s / 25 s) so that 250 replicas take seconds;
-``benchmarks/bench_estimator.py`` runs the full size.  Each statistical test also checks
+``python -m studies estimator-validation`` runs the full size.  Each statistical test also checks
 that its criterion rejects a wrong estimator (the test can fail).
 """
 import math
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pytest
@@ -429,25 +425,3 @@ def test_vacf_integral_is_the_trapezoid_of_an_exponential_to_its_last_lag():
     assert diffusion.vacf_integral(lag, a * np.exp(-lag / tau), dim=1) == pytest.approx(3 * got, rel=1e-14)
     with pytest.raises(ValueError, match="must start at 0"):
         diffusion.vacf_integral(lag[::-1], np.exp(-lag / tau))
-
-
-# ---- the deprecated modules --------------------------------------------------------------
-@pytest.mark.parametrize("name", ["studies.estimators", "studies.msd"])
-def test_deprecated_modules_warn_and_reexport(name):
-    import importlib
-
-    sys.modules.pop(name, None)
-    with pytest.warns(DeprecationWarning, match="deprecated"):
-        old = importlib.import_module(name)
-    rng = np.random.default_rng(4)
-    x = np.cumsum(rng.normal(size=(60, 5, 3)), axis=0)
-    if name == "studies.msd":
-        per_particle = old.msd_fft(x, per_particle=True)
-        assert per_particle.shape == (60, 5)
-        np.testing.assert_allclose(per_particle[:, 2], correlation.msd_bruteforce(x[:, 2]), rtol=1e-10, atol=1e-10)
-        np.testing.assert_allclose(old.msd_fft(x), correlation.msd_bruteforce(x), rtol=1e-10, atol=1e-10)
-    else:
-        m, mg = old.msd_fft_groups(x, 20, groups=5)
-        np.testing.assert_allclose(m, correlation.msd_bruteforce(x)[:21], rtol=1e-10, atol=1e-10)
-        assert old.t_interval is intervals.t_interval and old.MIN_PAIRS == sequential.MIN_PAIRS
-        assert old._tq(0.95, 10) == pytest.approx(2.228138851986274)

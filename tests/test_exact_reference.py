@@ -5,7 +5,7 @@ over z with scipy's quad, split at every topology event; it shares no code or id
 with exact.py beyond "the union of spheres".  It is itself checked here against
 closed forms (one sphere, a two-sphere lens) and for rotation invariance.
 
-What the reference achieves (measured, benchmarks/exact_accuracy.py): ~1e-15 relative
+What the reference achieves (measured, tests/exact_accuracy.py): ~1e-15 relative
 on volume, centre of mass and inertia tensor for generic clumps (quad's error estimates
 ~1e-15; round-off in the arc angles and the sum over pieces), so the tolerance below,
 1e-12, is 1000x above the reference's own error and 100x below the 1e-10 the issue

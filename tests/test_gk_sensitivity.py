@@ -1,23 +1,21 @@
-"""benchmarks/gk_sensitivity.py on synthetic runs with a known answer (no YADE).
+"""studies/gk_sensitivity.py (python -m studies gk-sensitivity) on synthetic runs with a known answer (no YADE).
 
 Ornstein-Uhlenbeck walkers have an exactly exponential velocity autocorrelation, so every
 Green-Kubo variant is unbiased, the plain integral to the largest stored lag L misses exactly the
 fraction exp(-L / tau) of D, and the long-lag MSD slope is D.
 """
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from test_study_analysis import D_TRUE, TAU, frames_of, spec_for, write_record
 
-import gk_sensitivity as gks  # noqa: E402
-from test_study_analysis import D_TRUE, TAU, frames_of, spec_for, write_record  # noqa: E402
-
-from studies import engine  # noqa: E402
-from studies import spec as S  # noqa: E402
+from studies import engine
+from studies import gk_sensitivity as gks
+from studies import spec as S
+from studies.__main__ import main
 
 
 def test_variants_agree_and_the_plain_integral_misses_the_exponential_tail(tmp_path):
@@ -42,10 +40,9 @@ def test_variants_agree_and_the_plain_integral_misses_the_exponential_tail(tmp_p
     assert np.all(np.isfinite(msd)) and abs(msd.mean() / D_TRUE - 1) < 0.05
 
 
-def test_refuses_fewer_than_two_runs(tmp_path, monkeypatch):
-    monkeypatch.setattr(sys, "argv", ["gk_sensitivity.py", str(tmp_path)])
+def test_refuses_fewer_than_two_runs(tmp_path):
     with pytest.raises(SystemExit, match="need at least 2"):
-        gks.main()
+        gks.main([str(tmp_path)])
 
 
 def _two_cases(tmp_path, d_scale, max_lag, seeds=range(1, 9), skip_b=()):
@@ -86,7 +83,7 @@ def test_pair_recovers_a_known_ratio_seed_by_seed_and_a_unit_shape_factor(tmp_pa
 
 
 def test_pair_counts_clipped_windows_leaves_out_truncations_beyond_the_lags_and_refuses_ambiguity(
-        tmp_path, monkeypatch, capsys):
+        tmp_path, capsys):
     rows, rdir = _two_cases(tmp_path, 1.0, 70.0, seeds=range(1, 4))   # 70 s of lags, tau 25 s
     res, _ = gks.paired(rows, "dimer-exact-paired", "dimer-uncorrected-paired")
     assert res["t_c = 3 tau, fit 2-4 tau"][3] == 0                    # t_c = 75 s: no value
@@ -94,9 +91,7 @@ def test_pair_counts_clipped_windows_leaves_out_truncations_beyond_the_lags_and_
     assert two_four[3] == 3 and two_four[4] == 3 and np.isfinite(two_four[0])
     assert res["t_c = 1 tau, fit 1-2 tau"][3:] == (3, 0)              # 25-50 s: inside the lags
     assert res["D"][4] == 3                                           # 1-3 tau = 25-75 s: clipped
-    monkeypatch.setattr(sys, "argv", ["gk_sensitivity.py", str(rdir), "--pair",
-                                      "dimer-exact-paired", "dimer-uncorrected-paired"])
-    gks.main()
+    main(["gk-sensitivity", str(rdir), "--pair", "dimer-exact-paired", "dimer-uncorrected-paired"])
     out = capsys.readouterr().out
     line = lambda key: next(x for x in out.splitlines() if x.strip().startswith(key))  # noqa: E731
     assert "| n/a: 0 pair(s)" in line("t_c = 3 tau, fit 2-4 tau")

@@ -1,8 +1,4 @@
 """The FFT mean-square displacement against the O(T^2) definition and closed forms."""
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pytest

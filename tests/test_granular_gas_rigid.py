@@ -8,10 +8,6 @@ momentum integrated in the world frame; (b) the isotropic body, omega = L / I_pe
 forces act through the member centres, so with zero initial axial spin both must give the
 same centre, axis and angular velocity.  With initial axial spin they must not (control).
 """
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pytest

@@ -1,13 +1,9 @@
-"""benchmarks/pair_correlation.py's statistics on synthetic pairs with a known correlation (no YADE)."""
-import sys
-from pathlib import Path
-
+"""studies/pair_correlation.py's statistics (python -m studies pair-correlation) on synthetic pairs
+with a known correlation (no YADE)."""
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-import pair_correlation as pc  # noqa: E402
+from studies import pair_correlation as pc
 
 
 def _pairs(rng, n, rho, sd_a, sd_b, ratio=1.10, d=15.0):

@@ -8,11 +8,8 @@ design and effects.csv.
 import json
 import math
 import os
-import sys
 import tomllib
 from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pandas as pd

@@ -10,8 +10,6 @@ import sys
 import tomllib
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
-
 import numpy as np
 import pytest
 
@@ -266,12 +264,12 @@ def test_committed_specs_resolve_every_contact_as_finely_as_the_measured_safe_st
     """The dt factor measured safe at 1e7 Pa (1.0; docs/timestep.md) holds at another stiffness,
     density or temperature only at as many steps per Hertz contact (t_c/dt ~ (E/rho)^(1/10) g^(-1/5),
     tests/test_timestep.py checks the leapfrog's side of it); where the time-step study was run at
-    a spec's stiffness (benchmarks/results/timestep*.json), the spec is also within its measured
+    a spec's stiffness (results/timestep/timestep*.json), the spec is also within its measured
     largest safe factor."""
     for p in sorted(SPECS.glob("*.toml")):
         assert _coarser_than_measured_safe(S.load(str(p))) == [], p
     measured = {}
-    for f in sorted((SPECS.parents[1] / "benchmarks" / "results").glob("timestep*.json")):
+    for f in sorted((SPECS.parents[1] / "results" / "timestep").glob("timestep*.json")):
         res = json.loads(f.read_text())
         if "dimer" in res.get("decision", {}):
             measured[res["material"]["youngs_modulus"]] = res["decision"]["dimer"]["largest_safe_factor"]

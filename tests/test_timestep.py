@@ -1,4 +1,4 @@
-"""The time-step study's collision map (benchmarks/bench_timestep.py): the sampled collisions
+"""The time-step study's collision map (studies/timestep, python -m studies timestep): the sampled collisions
 follow the gas's distributions, a head-on dimer collision ends as the exact 1-D elastic
 exchange with a second-order energy error, and free rotation of the triangle trimer on
 YADE 2025.2 keeps its energy and angular momentum to second order once the initial angular
@@ -7,26 +7,25 @@ import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-sys.path.insert(0, str(ROOT))
+from studies import shapes as shp
+from studies.timestep import collisions as tc
+from studies.timestep import study as ts
 
-import bench_timestep as bt  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_pairs_follow_the_gas_distributions():
     for key, dof in (("dimer", 2), ("trimer", 3)):
-        inp = bt.make_pairs(bt.SHAPES[key]["shape"], 20000, seed=3)
+        inp = tc.make_pairs(tc.SHAPES[key]["shape"], 20000, seed=3)
         m = inp["body"]["mass"]
         kT = inp["kT"]
-        assert inp["rot_dof"] == dof and kT == pytest.approx(2 * bt.ENERGY / (3 + dof))
+        assert inp["rot_dof"] == dof and kT == pytest.approx(2 * tc.ENERGY / (3 + dof))
         v = np.asarray(inp["vel"])
         g = v[0::2] - v[1::2]
         x = 0.5 * (m / 2) * np.sum(g ** 2, 1) / kT          # Gamma(2, 1): mean 2, variance 2
@@ -40,7 +39,7 @@ def test_pairs_follow_the_gas_distributions():
         assert abs(np.mean(b ** 2) / (2 * inp["bounding_radius"]) ** 2 - 0.5) < 0.01   # uniform over the disc
         ori = np.asarray(inp["ori"]).reshape(-1, 3, 3)
         w = np.einsum("nji,nj->ni", ori, np.asarray(inp["angvel"]))   # body frame
-        pm = bt.shp.properties(bt.SHAPES[key]["shape"], bt.MATERIAL["density"])["exact"]["principal_moments"]
+        pm = shp.properties(tc.SHAPES[key]["shape"], tc.MATERIAL["density"])["exact"]["principal_moments"]
         # body-frame moments: the dimer's axis is body z (I_axial, the smallest, is on z), the
         # triangle lies in the body xy plane (ascending moments on x, y, z)
         I = np.array([pm[2], pm[2], pm[0]]) if key == "dimer" else np.asarray(pm)
@@ -55,7 +54,7 @@ def test_pairs_follow_the_gas_distributions():
 
 def _head_on(g=2.0):
     """One pair of paper dimers, axes along the course, centres on it: a 1-D sphere collision."""
-    inp = bt.make_pairs(bt.SHAPES["dimer"]["shape"], 1, seed=1)
+    inp = tc.make_pairs(tc.SHAPES["dimer"]["shape"], 1, seed=1)
     r_b = inp["bounding_radius"]
     inp["pos"] = [[0.0, 0.0, -r_b - 0.01], [0.0, 0.0, r_b + 0.01]]
     inp["ori"] = [list(np.eye(3).ravel())] * 2
@@ -65,15 +64,15 @@ def _head_on(g=2.0):
     return inp
 
 
-@pytest.mark.skipif(not bt.native_yade_version().startswith("2023.02a"),
+@pytest.mark.skipif(not tc.native_yade_version().startswith("2023.02a"),
                     reason="the dimer map runs on YADE 2023.02a (Debian 12); the Debian 13 root has 2025.2 only")
 def test_head_on_dimers_exchange_velocities_with_second_order_energy_error(tmp_path):
     inp = _head_on()
     res = {}
     for f in (0.5, 1.0):
-        out = bt.run_map(inp, f, "2023.02a", str(tmp_path), "headon")
+        out = tc.run_map(inp, f, "2023.02a", str(tmp_path), "headon")
         assert out["done"] and out["touched"] == [True] and out["yade_version"].startswith("2023")
-        res[f] = bt.outcome(inp, out)
+        res[f] = tc.outcome(inp, out)
         v = np.asarray(out["vel"])
         assert np.allclose(v[:, :2], 0, atol=1e-12)              # stays on the line
         assert res[f]["q"][0] == pytest.approx(2.0, abs=2e-3)    # g' = -g
@@ -84,7 +83,7 @@ def test_head_on_dimers_exchange_velocities_with_second_order_energy_error(tmp_p
 def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
     """Two trimers moving apart with equipartition spin: nothing touches; |dL|, dE only from the
     integrator's free rotation (delValle2023 started half a step back)."""
-    inp = bt.make_pairs(bt.SHAPES["trimer"]["shape"], 1, seed=5)
+    inp = tc.make_pairs(tc.SHAPES["trimer"]["shape"], 1, seed=5)
     v = np.asarray(inp["vel"])
     inp["vel"] = (-v).tolist()                                    # receding: no collision
     inp["angvel"] = (np.asarray(inp["angvel"]) * 3).tolist()      # ~ 3x thermal spin
@@ -95,14 +94,14 @@ def test_free_trimer_rotation_is_second_order_on_yade_2025(tmp_path):
     # does not see: run_map stages them
     outside = tempfile.mkdtemp(prefix="clumpprops-test-", dir="/var/tmp")
     try:
-        outs = {f: bt.run_map(inp, f, "2025.2", work, "free") for f, work in ((0.5, str(tmp_path)), (1.0, outside))}
+        outs = {f: tc.run_map(inp, f, "2025.2", work, "free") for f, work in ((0.5, str(tmp_path)), (1.0, outside))}
         assert os.path.exists(os.path.join(outside, "free-E1e+07-f1.0.out.json"))
     finally:
         shutil.rmtree(outside, ignore_errors=True)
     for f in (0.5, 1.0):
         out = outs[f]
         assert out["rot_algorithm"] == "delValle2023" and out["touched"] == [False]
-        o = bt.outcome(inp, out)
+        o = tc.outcome(inp, out)
         L0 = np.abs(np.asarray(inp["angvel"])).max() * 0.01
         errs[f] = float(np.max(np.linalg.norm(o["dL"][0], axis=1))) / L0
         assert abs(o["de_rel"][0]) < 1e-8                         # the integrator's invariant
@@ -114,16 +113,16 @@ def test_decision_stops_at_the_first_unsafe_factor_and_never_extrapolates_the_ga
     largest gas-checked one is not declared safe however small its predicted D error."""
     rows = [{"factor": f, "D_rel_pred": -1e-4 * f * f, "D_rel_pred_se": 1e-5} for f in (0.25, 0.5, 1.0, 1.5, 2.0)]
     runs = [{"factor": f, "energy_drift": 2e-4 * f * f, "ok": True} for f in (0.5, 1.0, 1.5)]
-    d = bt.decide("x", {"rows": rows}, {"runs": runs})
+    d = ts.decide("x", {"rows": rows}, {"runs": runs})
     assert d["largest_safe_factor"] == 1.5
     assert [p["ok"] for p in d["per_factor"]] == [True, True, True, True, False]
     runs[1] = dict(runs[1], energy_drift=2e-3)         # over the energy tolerance at 1.0
-    assert bt.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
+    assert ts.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
     runs[1] = dict(runs[1], energy_drift=1e-4, ok=False)   # a run flagged by its own checks
-    assert bt.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
+    assert ts.decide("x", {"rows": rows}, {"runs": runs})["largest_safe_factor"] == 0.5
     rows[2] = dict(rows[2], D_rel_pred=-3e-3)           # the predicted D error too large at 1.0
-    assert bt.decide("x", {"rows": rows}, None)["largest_safe_factor"] == 0.5
-    assert bt.decide("x", {"rows": rows[:2]}, None)["largest_safe_factor"] == 0.5  # map only: the map decides
+    assert ts.decide("x", {"rows": rows}, None)["largest_safe_factor"] == 0.5
+    assert ts.decide("x", {"rows": rows[:2]}, None)["largest_safe_factor"] == 0.5  # map only: the map decides
 
 
 def test_run_map_never_reuses_another_inputs_output(tmp_path):
@@ -133,23 +132,40 @@ def test_run_map_never_reuses_another_inputs_output(tmp_path):
     (tmp_path / "x-E1e+07-f0.5.in.json").write_text(json.dumps({"old": True}))
     (tmp_path / "x-E1e+07-f0.5.out.json").write_text(json.dumps({"stale": True}))
     with pytest.raises(RuntimeError, match="no YADE"):
-        bt.run_map(inp, 0.5, "1999.1", str(tmp_path), "x")
+        tc.run_map(inp, 0.5, "1999.1", str(tmp_path), "x")
     assert not (tmp_path / "x-E1e+07-f0.5.out.json").exists()
 
 
-def test_make_bench_reruns_the_committed_timestep_results_with_their_arguments():
-    """`make bench` rewrites benchmarks/results/timestep*.json: it must run bench_timestep.py with
-    the arguments those files record (their scratch --workdir aside), not with other defaults."""
+def _without(argv, *options):
+    """``argv`` without the given options and their values."""
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+        elif a in options:
+            skip = True
+        else:
+            out.append(a)
+    return out
+
+
+def test_make_science_reruns_the_committed_timestep_results_with_their_arguments():
+    """`make science-timestep` rewrites results/timestep/timestep*.json: it must run the study with
+    the arguments each file records, not with other defaults, and write it where it is.  Left out of
+    the comparison: the scratch --workdir (`make` passes none) and --out, which the files record as
+    the place they were first written to."""
     import shlex
-    assert Path(bt.OUT).resolve() == ROOT / "benchmarks" / "results" / "timestep.json"   # no --out
+    assert Path(tc.OUT).resolve() == ROOT / "results" / "timestep" / "timestep.json"   # no --out
     lines = [ln for ln in (ROOT / "Makefile").read_text().splitlines()
-             if ln.startswith("\t") and "benchmarks/bench_timestep.py" in ln]
-    made = [shlex.split(ln.split("benchmarks/bench_timestep.py", 1)[1]) for ln in lines]
+             if ln.startswith("\t") and "-m studies timestep" in ln]
+    made = {}
+    for ln in lines:
+        args = shlex.split(ln.split("-m studies timestep", 1)[1])
+        out = args[args.index("--out") + 1] if "--out" in args else os.path.relpath(tc.OUT, ROOT)
+        made[out] = _without(args, "--out")
     for name in ("timestep.json", "timestep_tetra.json", "timestep_E1e8.json", "timestep_E1e9.json"):
-        argv = json.loads((ROOT / "benchmarks" / "results" / name).read_text())["argv"]
-        i = argv.index("--workdir") if "--workdir" in argv else len(argv)   # `make bench` passes none
-        want = argv[:i] + argv[i + 2:]
-        assert want in made, (name, want, made)
+        argv = json.loads((ROOT / "results" / "timestep" / name).read_text())["argv"]
+        assert made.get(f"results/timestep/{name}") == _without(argv, "--workdir", "--out"), (name, argv, made)
     assert len(made) == 4
 
 

@@ -1,19 +1,16 @@
-"""benchmarks/vacf_shape_md.py's analysis on autocorrelations with a known shape (no simulation).
+"""studies/vacf_shape.py's analysis (python -m studies vacf-shape) on autocorrelations with a known
+shape (no simulation).
 
 A single exponential has the same local decay time on every lag window; a mixture of two has one
 that grows with the lag, to the value its closed form gives.  The jackknife over rows reproduces
 the textbook standard error of a mean (the ratio of means: tests/test_estimators.py).
 """
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-import vacf_shape_md as vs  # noqa: E402
+from studies import vacf_shape as vs
 
 LAG = np.arange(601) * 0.25
 

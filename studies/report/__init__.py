@@ -117,7 +117,7 @@ def build():
     rates_section(lines, rates.rows(collected, maps))
     rate_ratio_section(lines, rates.ratio_rows(collected, maps))
     sphere_gas_section(lines, sph)
-    vacf_shape = tables.read_json(os.path.join(S.ROOT, "benchmarks", "results", "vacf_shape_md.json"))
+    vacf_shape = tables.read_json(os.path.join(S.ROOT, "results", "estimator", "vacf_shape_md.json"))
     hsmd = tables.read_json(os.path.join(RESULTS, "hard_sphere_md.json"))        # written by studies.hard_sphere_md
     hard_sphere_md_section(lines, hsmd["gases"] if hsmd else [], sph, vacf_shape)
     lines += _lines(render("figures.md.j2", figures=figs))

@@ -204,7 +204,7 @@ def hard_times_k2(ee, k2_part):
 
 
 def map_of_group(maps, sp, g, case):
-    """(collision map, effective protocol) of a group's gas for ``case`` (benchmarks/case_map.py; the
+    """(collision map, effective protocol) of a group's gas for ``case`` (studies/maps.py; the
     same shape, material and energy: :func:`studies.rates.map_matches`), or (None, None).  A map
     is of a gas in equipartition at each case's own temperature, so a spec that gives every case
     exact's spins (``spin_pairing = "same"``) has none."""

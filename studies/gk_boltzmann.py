@@ -8,15 +8,15 @@ rates.  Here the tagged particle of the linear Boltzmann equation (``studies.kin
 the same collision chain whose Green-Kubo sum gives ``d_boltzmann``) is run in continuous time, with
 exponential free flights of rate lambda(v), from the time-stationary Maxwellian: one "run" is 864
 particles x 1,000 s at 0.25 s frames, as the study's sphere runs (E = 1e7 Pa, the measured kT, n).
-Per run: D by the study's estimator (``estimators.diffusion_green_kubo`` with its defaults) and by
+Per run: D by the study's estimator (``diffusion.diffusion_green_kubo`` with its defaults) and by
 the plain integral of the same VACF to 150 s (~10 tau, no tail model).  The reference is
 ``d_boltzmann`` of the same (infinite) gas with many chains.
 
-    .venv/bin/python benchmarks/gk_boltzmann_vacf.py [--runs 200] [--ref-chains 8000] [--seed 2]
+    .venv/bin/python -m studies gk-boltzmann [--runs 200] [--ref-chains 8000] [--seed 2]
 
 Prints the mean bias of the estimator against the reference and against the plain integral, with
 standard errors over the runs (the independent units), and writes
-benchmarks/results/gk_boltzmann_vacf.json.  About 1.5 CPU-s per run and 3-5 CPU-min for the reference.
+results/estimator/gk_boltzmann_vacf.json.  About 1.5 CPU-s per run and 3-5 CPU-min for the reference.
 """
 from __future__ import annotations
 
@@ -29,10 +29,9 @@ import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-from studies import correlation, diffusion  # noqa: E402
-from studies import kinetic as K  # noqa: E402
+from . import correlation, diffusion
+from . import kinetic as K
+from .spec import ROOT
 
 # the sphere gas of studies/specs/sphere_gas.toml at E = 1e7 Pa (results/sphere_gas.csv)
 MASS = 2.3858201565553436        # kg: the exact dimer's mass
@@ -69,11 +68,13 @@ def one_run(seed, n=N, t_end=T_END, dt=DT, max_lag=MAX_LAG):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    """``python -m studies gk-boltzmann [options]``: prints the biases and writes ``--out``."""
+    ap = argparse.ArgumentParser(prog="python -m studies gk-boltzmann", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=200)
     ap.add_argument("--ref-chains", type=int, default=8000)
     ap.add_argument("--seed", type=int, default=2)
-    ap.add_argument("--out", default=os.path.join(ROOT, "benchmarks", "results", "gk_boltzmann_vacf.json"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "estimator", "gk_boltzmann_vacf.json"))
     a = ap.parse_args(argv)
     t0 = time.time()
     rows = []

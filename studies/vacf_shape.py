@@ -8,31 +8,29 @@ that its local decay time grows with the lag and an exponential fitted on 1-3 ta
 fast beyond 2 tau.  This script measures that directly:
 
 * R runs of the hard-sphere gas (864 spheres, 1,000 s, the first 50 s dropped, 0.25 s frames), each
-  giving its VACF to 150 s (``estimators.vacf_fft``) and its exact integral to 150 s
+  giving its VACF to 150 s (``correlation.vacf_fft``) and its exact integral to 150 s
   (``hard_sphere_md.exact_integral``: no quadrature, no tail model);
 * the local decay time -1/(d ln C / dt) of the runs' mean VACF on lag windows of 0-0.5, 1-2, 2-3
   and 3-4 tau, with delete-one-run jackknife errors (the runs are the independent units);
 * the estimator with other truncations and tail-fit windows against the exact integral: the ratio
   of the means with a paired delta-method error, and the sd of D per run.
 
-    .venv/bin/python benchmarks/vacf_shape_md.py [--runs 200] [--seed 10000]
+    .venv/bin/python -m studies vacf-shape [--runs 200] [--seed 10000]
 
-Writes benchmarks/results/vacf_shape_md.json.  About 3 CPU-s per run.
+Writes results/estimator/vacf_shape_md.json.  About 3 CPU-s per run.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
-import sys
 import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-from studies import correlation, diffusion, intervals  # noqa: E402
-from studies import hard_sphere_md as H  # noqa: E402
+from . import correlation, diffusion, intervals
+from . import hard_sphere_md as H
+from .spec import ROOT
 
 T_EQ, T_END, MAX_LAG = 50.0, 1000.0, 150.0
 WINDOWS = ((0.0, 0.5), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0))       # in units of tau_hat
@@ -81,10 +79,11 @@ def one_run(seed, lib):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    """``python -m studies vacf-shape [--runs R] [--seed S] [--out F]``: prints the tables, writes ``--out``."""
+    ap = argparse.ArgumentParser(prog="python -m studies vacf-shape", description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=200)
     ap.add_argument("--seed", type=int, default=10000, help="first run's seed (runs use seed, seed + 1, ...)")
-    ap.add_argument("--out", default=os.path.join(ROOT, "benchmarks", "results", "vacf_shape_md.json"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "estimator", "vacf_shape_md.json"))
     a = ap.parse_args(argv)
     if a.runs < 10:
         ap.error("--runs must be at least 10 (the errors are over runs)")

@@ -9,7 +9,7 @@ after them are 1000 s long (their first 400 s are their 400 s run).  From the fr
 the VACF (time-origin and particle averaged, 16 particle groups, lags to 150 s) and the
 MSD (lags to 175 s, per group).  Estimators:
 
-  GK c=...   Green-Kubo, integral to c tau_hat + exponential tail (studies.estimators),
+  GK c=...   Green-Kubo, integral to c tau_hat + exponential tail (studies.diffusion),
              per-run 95 % interval: jackknife over the 16 groups, t with 15 dof
   OLS a-b    today's: slope/6 of the MSD on lags a..b s, same jackknife interval
 
@@ -20,9 +20,9 @@ paired differences (a partner run with tau_B = 1.04 tau sharing the initial velo
 half the noise) with 8 and 40 pairs.  Then the sequential design (optional stopping on the
 spread) on normal and on the bank of GK pair differences.
 
-    OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python benchmarks/bench_estimator.py [--replicas 500]
+    OMP_NUM_THREADS=1 nice -n 5 .venv/bin/python -m studies estimator-validation [--replicas 500]
 
-Writes benchmarks/results/estimator.json.
+Writes results/estimator/estimator.json (its printed tables: results/estimator/estimator.txt).
 """
 from __future__ import annotations
 
@@ -31,14 +31,12 @@ import json
 import math
 import os
 import platform
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from studies import correlation, diffusion, equilibration, intervals, sequential, synthetic  # noqa: E402
+from . import correlation, diffusion, equilibration, intervals, sequential, synthetic
+from .spec import ROOT
 
 N = 864
 DT = 0.25
@@ -146,12 +144,12 @@ def relaxing_share(rng, t_end, amp, dt=0.25, tau_relax=28.4, sd=0.0105, corr=28.
     return t, 0.4 - amp * np.exp(-t / tau_relax) + lfilter([1.0], [1.0, -a], z)
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def _parser():
+    ap = argparse.ArgumentParser(prog="python -m studies estimator-validation", description=__doc__.split("\n")[0])
     ap.add_argument("--replicas", type=int, default=500)
     ap.add_argument("--tau", type=float, default=25.0)
     ap.add_argument("--seed", type=int, default=20261123)
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "estimator.json"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "estimator", "estimator.json"))
     ap.add_argument("--raw", default="/tmp/bench_estimator_raw.npz",
                     help="per-replica results, saved every 25 replicas (resumed from if present)")
     ap.add_argument("--long-first", type=int, default=50, help="replicas 0..k-1 are 1000 s runs (+ their first 400 s)")
@@ -159,111 +157,127 @@ def main(argv=None):
     ap.add_argument("--first", type=int, default=0, help="first replica of this worker (to split the work)")
     ap.add_argument("--merge", nargs="*", default=[], help="other workers' --raw files to add before summarising")
     ap.add_argument("--summarise-only", action="store_true", help="summarise the replicas in --raw so far")
-    args = ap.parse_args(argv)
-    from scipy import stats
+    return ap
 
-    q15 = float(stats.t.ppf(0.975, GROUPS - 1))
-    tau = args.tau
-    truth = SIGMA_V2 * tau
-    truth_b = SIGMA_V2 * tau * PAIR_RATIO
-    lag_v = np.arange(MAX_LAG_VACF + 1) * DT
-    lag_m = np.arange(MAX_LAG_MSD + 1) * DT
-    names = list(GK_VARIANTS) + list(OLS_WINDOWS)
-    D = {L: {k: np.full(args.replicas, np.nan) for k in names} for L in LENGTHS}
-    S = {L: {k: np.full(args.replicas, np.nan) for k in names} for L in LENGTHS}
-    DB = {k: np.full(args.replicas, np.nan) for k in GK_VARIANTS}
-    frames = {L: int(round(L / DT)) + 1 for L in LENGTHS}
-    start, wall0 = args.first, 0.0
-    keyname = lambda L, k: f"{L:g}|{k}"      # noqa: E731
 
-    def load(path, resume):
+NAMES = list(GK_VARIANTS) + list(OLS_WINDOWS)
+
+
+def _key(L, k):
+    return f"{L:g}|{k}"
+
+
+class Bank:
+    """The per-replica estimates: ``D[L][k]`` and ``S[L][k]`` (D and its per-run SE of estimator
+    ``k`` on the run of length ``L`` s), ``DB[k]`` (the paired partner's D, 400 s); NaN where not run.
+    Saved to and resumed from an ``.npz`` file (``--raw``)."""
+
+    def __init__(self, replicas, seed, tau):
+        self.seed, self.tau = seed, tau
+        self.D = {L: {k: np.full(replicas, np.nan) for k in NAMES} for L in LENGTHS}
+        self.S = {L: {k: np.full(replicas, np.nan) for k in NAMES} for L in LENGTHS}
+        self.DB = {k: np.full(replicas, np.nan) for k in GK_VARIANTS}
+
+    def load(self, path, resume):
+        """Add the replicas of ``path``: (replicas done, wall s) or None for another seed or tau."""
         z = np.load(path, allow_pickle=False)
-        if int(z["seed"]) != args.seed or float(z["tau"]) != tau:
+        if int(z["seed"]) != self.seed or float(z["tau"]) != self.tau:
             print(f"ignoring {path}: other seed or tau")
             return None
         a, b = (int(z["first"]) if "first" in z.files else 0), int(z["done"])
         for L in LENGTHS:
-            for k in names:
-                D[L][k][a:b] = z["D|" + keyname(L, k)][a:b]
-                S[L][k][a:b] = z["S|" + keyname(L, k)][a:b]
+            for k in NAMES:
+                self.D[L][k][a:b] = z["D|" + _key(L, k)][a:b]
+                self.S[L][k][a:b] = z["S|" + _key(L, k)][a:b]
         for k in GK_VARIANTS:
-            DB[k][a:b] = z["DB|" + k][a:b]
+            self.DB[k][a:b] = z["DB|" + k][a:b]
         print(f"{'resuming after' if resume else 'merged'} replicas {a}-{b - 1} from {path}")
         return b, float(z["wall"])
 
+    def save(self, path, first, done, wall):
+        arrs = {"D|" + _key(L, k): self.D[L][k] for L in LENGTHS for k in NAMES}
+        arrs.update({"S|" + _key(L, k): self.S[L][k] for L in LENGTHS for k in NAMES})
+        arrs.update({"DB|" + k: self.DB[k] for k in GK_VARIANTS})
+        tmp = path + ".tmp.npz"
+        np.savez(tmp, seed=self.seed, tau=self.tau, first=first, done=done, wall=wall, **arrs)
+        os.replace(tmp, path)
+
+
+def _replica(bank, r, args, frames, lag_v, lag_m):
+    """Replica ``r``: its runs (400 s, and 1000 s for the long ones) and its paired partner."""
+    tau = args.tau
+    rng = np.random.default_rng([args.seed, r])
+    long_run = r < args.long_first or r % args.long_every == 0     # CPU budget: see --long-every
+    lengths = LENGTHS if long_run else (400.0,)
+    vel, pos = synthetic.simulate_ou(rng, N, frames[max(lengths)], DT, tau, math.sqrt(SIGMA_V2),
+                             positions="trapezoid")
+    for L in lengths:
+        res = analyse(vel[:frames[L]], pos[:frames[L]], lag_v, lag_m)
+        for k, (d, s_) in res.items():
+            bank.D[L][k][r], bank.S[L][k][r] = d, s_
+    # paired partner: same initial velocities, noise correlated rho, tau_B = 1.04 tau (400 s)
+    nb = frames[400.0]
+    z_a = (vel[1:nb] - math.exp(-DT / tau) * vel[:nb - 1]).transpose(1, 2, 0) / math.sqrt(
+        SIGMA_V2 * (1 - math.exp(-2 * DT / tau)))
+    z_b = PAIR_RHO * z_a + math.sqrt(1 - PAIR_RHO ** 2) * rng.standard_normal(z_a.shape)
+    vb, _ = synthetic.simulate_ou(rng, N, nb, DT, tau * PAIR_RATIO, math.sqrt(SIGMA_V2), positions=False,
+                          v0=vel[0], noise=(z_b, None))
+    resb = analyse(vb, None, lag_v, lag_m, jackknife=False)
+    for k in GK_VARIANTS:
+        bank.DB[k][r] = resb[k][0]
+
+
+def _simulate(bank, args):
+    """Fill the bank: resume from ``--raw``, merge ``--merge``, run the replicas left; wall seconds."""
+    lag_v = np.arange(MAX_LAG_VACF + 1) * DT
+    lag_m = np.arange(MAX_LAG_MSD + 1) * DT
+    frames = {L: int(round(L / DT)) + 1 for L in LENGTHS}
+    start, wall0 = args.first, 0.0
     if os.path.exists(args.raw):
-        got = load(args.raw, True)
+        got = bank.load(args.raw, True)
         if got:
             start, wall0 = got
     for path in args.merge:
-        load(path, False)
-
-    def save(done, wall):
-        arrs = {"D|" + keyname(L, k): D[L][k] for L in LENGTHS for k in names}
-        arrs.update({"S|" + keyname(L, k): S[L][k] for L in LENGTHS for k in names})
-        arrs.update({"DB|" + k: DB[k] for k in GK_VARIANTS})
-        tmp = args.raw + ".tmp.npz"
-        np.savez(tmp, seed=args.seed, tau=tau, first=args.first, done=done, wall=wall, **arrs)
-        os.replace(tmp, args.raw)
-
-    def long_run(r):       # which replicas also give a 1000 s run (CPU budget: see --long-every)
-        return r < args.long_first or r % args.long_every == 0
-
+        bank.load(path, False)
     t0 = time.time() - wall0
     todo = range(start, args.replicas) if not args.summarise_only else range(0)
     for r in todo:
-        rng = np.random.default_rng([args.seed, r])
-        lengths = LENGTHS if long_run(r) else (400.0,)
-        vel, pos = synthetic.simulate_ou(rng, N, frames[max(lengths)], DT, tau, math.sqrt(SIGMA_V2),
-                                 positions="trapezoid")
-        for L in lengths:
-            res = analyse(vel[:frames[L]], pos[:frames[L]], lag_v, lag_m)
-            for k, (d, s_) in res.items():
-                D[L][k][r], S[L][k][r] = d, s_
-        # paired partner: same initial velocities, noise correlated rho, tau_B = 1.04 tau (400 s)
-        nb = frames[400.0]
-        z_a = (vel[1:nb] - math.exp(-DT / tau) * vel[:nb - 1]).transpose(1, 2, 0) / math.sqrt(
-            SIGMA_V2 * (1 - math.exp(-2 * DT / tau)))
-        z_b = PAIR_RHO * z_a + math.sqrt(1 - PAIR_RHO ** 2) * rng.standard_normal(z_a.shape)
-        vb, _ = synthetic.simulate_ou(rng, N, nb, DT, tau * PAIR_RATIO, math.sqrt(SIGMA_V2), positions=False,
-                              v0=vel[0], noise=(z_b, None))
-        resb = analyse(vb, None, lag_v, lag_m, jackknife=False)
-        for k in GK_VARIANTS:
-            DB[k][r] = resb[k][0]
-        del vel, pos, vb
+        _replica(bank, r, args, frames, lag_v, lag_m)
         if (r + 1) % 25 == 0 or r + 1 == args.replicas:
-            save(r + 1, time.time() - t0)
+            bank.save(args.raw, args.first, r + 1, time.time() - t0)
             print(f"  {r + 1}/{args.replicas} replicas, {time.time() - t0:.0f} s", flush=True)
-    args.replicas = int(np.isfinite(D[400.0][PRIMARY]).sum())     # replicas present (400 s runs)
-    wall = time.time() - t0
+    return time.time() - t0
 
-    rng = np.random.default_rng(args.seed + 1)
+
+def _estimator_table(bank, truth, q15, rng):
+    """Per run length and estimator: bias, spread, coverage (printed)."""
     table = {}
-    n_long = int(np.isfinite(D[1000.0][PRIMARY]).sum())
-    print(f"\nOU walkers: N = {N}, dt = {DT} s, tau = {tau} s, D = {truth:.4f} m^2/s, "
-          f"{args.replicas} replicas of 400 s, {n_long} of 1000 s, {wall:.0f} s wall (this worker)")
     hdr = (f"{'run':>6} {'estimator':<12} {'bias %':>14} {'sd %':>6} {'cover 95':>9} {'SE/sd':>6} "
            f"{'t8 disj':>8} {'t8 res':>7}")
     print(hdr)
     for L in LENGTHS:
-        for k in names:
-            s = summarise(D[L][k], S[L][k], truth, q15)
-            s["seeds8"] = seed_coverage(D[L][k], truth, 8, rng)
+        for k in NAMES:
+            s = summarise(bank.D[L][k], bank.S[L][k], truth, q15)
+            s["seeds8"] = seed_coverage(bank.D[L][k], truth, 8, rng)
             table[f"{L:g}s|{k}"] = s
             print(f"{L:>5g}s {k:<12} {100 * s['bias']:+6.2f} ± {100 * s['bias_se']:4.2f} {100 * s['sd']:6.2f} "
                   f"{_pct(s['coverage']):>8}% {'  n/a' if s['mean_se_over_sd'] is None else format(s['mean_se_over_sd'], '5.2f'):>6} "
                   f"{_pct(s['seeds8']['coverage_disjoint']):>7}% {_pct(s['seeds8']['coverage_resampled']):>6}%")
+    return table
 
-    # paired differences, 400 s, D_B - D_A
+
+def _paired_table(bank, truth, truth_b, rng):
+    """Paired differences D_B - D_A (400 s): spread and t-interval coverage (printed)."""
     pairs = {}
     print(f"\npaired differences (400 s, D_B / D_A = {PAIR_RATIO}, noise correlation {PAIR_RHO}): "
           f"true D_B - D_A = {truth_b - truth:.4f} m^2/s")
+    D400, DB = bank.D[400.0], bank.DB
     for k in GK_VARIANTS:
-        diff = DB[k] - D[400.0][k]
+        diff = DB[k] - D400[k]
         diff = diff[np.isfinite(diff)]
         p = dict(n=len(diff), mean=float(diff.mean()), sd=float(diff.std(ddof=1)),
                  bias_rel_to_truth=float(diff.mean() / (truth_b - truth) - 1),
-                 corr=float(np.corrcoef(*[a[np.isfinite(DB[k] - D[400.0][k])] for a in (DB[k], D[400.0][k])])[0, 1]))
+                 corr=float(np.corrcoef(*[a[np.isfinite(DB[k] - D400[k])] for a in (DB[k], D400[k])])[0, 1]))
         for n in (8, 40):
             p[f"t{n}"] = seed_coverage(diff, truth_b - truth, n, rng)
         pairs[k] = p
@@ -272,14 +286,15 @@ def main(argv=None):
               f"({p['t8']['disjoint_groups']}) / {_pct(p['t8']['coverage_resampled'])}% resampled; "
               f"40 pairs {_pct(p['t40']['coverage_disjoint'])}% ({p['t40']['disjoint_groups']}) / "
               f"{_pct(p['t40']['coverage_resampled'])}%")
+    return pairs
 
-    # sequential design
+
+def _sequential_table(bank, sd_pair, rng):
+    """The sequential design's coverage and sample sizes on normal, skewed and banked draws (printed)."""
     print("\nsequential design (batches of 2 from next_batch, stop when the 95 % half-width <= target):")
     seq = {}
-    sd_pair = pairs[PRIMARY]["sd"]
-    bank = (DB[PRIMARY] - D[400.0][PRIMARY])
-    bank = bank[np.isfinite(bank)]
-    delta = truth_b - truth
+    bank_diff = (bank.DB[PRIMARY] - bank.D[400.0][PRIMARY])
+    bank_diff = bank_diff[np.isfinite(bank_diff)]
     normal = lambda g, n: g.normal(0.0, 1.0, n)                       # noqa: E731
     gamma = lambda g, n: (g.gamma(4.0, 1.0, n) - 4.0) / 2.0           # noqa: E731  skewness 1
     cases = {   # name: (draw, truth, target half-width, stop on the mean?, min_n)
@@ -288,7 +303,7 @@ def main(argv=None):
         "normal, target sd/4 (fixed n 64), min_n 8": (normal, 0.0, 0.25, False, 8),
         "normal, target sd/4 (fixed n 64), min_n 12": (normal, 0.0, 0.25, False, 12),
         "skewed (gamma, skewness 1), sd/2, min_n 12": (gamma, 0.0, 0.5, False, 12),
-        "GK pair-difference bank, sd/2, min_n 12": (lambda g, n: g.choice(bank, n), float(bank.mean()),
+        "GK pair-difference bank, sd/2, min_n 12": (lambda g, n: g.choice(bank_diff, n), float(bank_diff.mean()),
                                                     0.5 * sd_pair, False, 12),
         "control: stop when interval excludes 0": (normal, 0.0, 0.5, True, 8),
     }
@@ -299,15 +314,18 @@ def main(argv=None):
         seq[name] = r
         print(f"  {name:<48} coverage {100 * r['coverage']:5.1f}% ± {100 * r['coverage_se']:.1f}, "
               f"n mean {r['n_mean']:.1f} (max {r['n_max']}), met {100 * r['met_fraction']:.0f}%")
+    return seq
 
-    # equilibration cut on the paper's relaxation with the gas's share noise
+
+def _equilibration_table(seed):
+    """The equilibration cut on the paper's relaxation with the gas's share noise (printed)."""
     print("\nequilibration cut: share = 0.4 - 0.36 exp(-t/28.4 s) + AR(1) noise (sd 0.0105, correlation 28.4 s)")
     eq = {}
     for t_end in (400.0, 1000.0):
         for amp in (0.36, 0.0):
             cuts, oks = [], []
             for sd_seed in range(200):
-                t, y = relaxing_share(np.random.default_rng([args.seed, 7, int(t_end), int(amp > 0), sd_seed]),
+                t, y = relaxing_share(np.random.default_rng([seed, 7, int(t_end), int(amp > 0), sd_seed]),
                                       t_end, amp)
                 res = equilibration.detect_equilibration(t, y, 0.4)
                 cuts.append(res["t_cut"])
@@ -318,7 +336,31 @@ def main(argv=None):
             eq[key] = dict(n=len(cuts), cut_p5=float(pct[0]), cut_median=float(pct[1]), cut_p95=float(pct[2]),
                            no_cut=float(np.mean(~np.isfinite(cuts))), ok=float(np.mean(oks)))
             print(f"  {key:<18} cut 5/50/95 % = {pct[0]:5.0f} {pct[1]:5.0f} {pct[2]:5.0f} s, ok {100 * np.mean(oks):5.1f} %")
+    return eq
 
+
+def main(argv=None):
+    """``python -m studies estimator-validation [options]``: simulate (or resume), print the tables,
+    write ``--out``."""
+    args = _parser().parse_args(argv)
+    from scipy import stats
+
+    q15 = float(stats.t.ppf(0.975, GROUPS - 1))
+    tau = args.tau
+    truth = SIGMA_V2 * tau
+    truth_b = SIGMA_V2 * tau * PAIR_RATIO
+    bank = Bank(args.replicas, args.seed, tau)
+    wall = _simulate(bank, args)
+    args.replicas = int(np.isfinite(bank.D[400.0][PRIMARY]).sum())     # replicas present (400 s runs)
+
+    rng = np.random.default_rng(args.seed + 1)
+    n_long = int(np.isfinite(bank.D[1000.0][PRIMARY]).sum())
+    print(f"\nOU walkers: N = {N}, dt = {DT} s, tau = {tau} s, D = {truth:.4f} m^2/s, "
+          f"{args.replicas} replicas of 400 s, {n_long} of 1000 s, {wall:.0f} s wall (this worker)")
+    table = _estimator_table(bank, truth, q15, rng)
+    pairs = _paired_table(bank, truth, truth_b, rng)
+    seq = _sequential_table(bank, pairs[PRIMARY]["sd"], rng)
+    eq = _equilibration_table(args.seed)
     out = dict(
         config=dict(N=N, dt_s=DT, tau_s=tau, sigma_v2=SIGMA_V2, D_true=truth, replicas=args.replicas,
                     replicas_1000s=n_long,
@@ -326,7 +368,7 @@ def main(argv=None):
                     max_lag_msd_s=MAX_LAG_MSD * DT, pair_ratio=PAIR_RATIO, pair_noise_corr=PAIR_RHO,
                     seed=args.seed, gk_fit_window=list(diffusion.GK_FIT_WINDOW), primary=PRIMARY),
         estimators=table, pairs=pairs, sequential=seq, equilibration=eq,
-        per_run={f"{L:g}s|{k}": [None if not np.isfinite(v) else round(float(v), 6) for v in D[L][k]]
+        per_run={f"{L:g}s|{k}": [None if not np.isfinite(v) else round(float(v), 6) for v in bank.D[L][k]]
                  for L in LENGTHS for k in (PRIMARY, *OLS_WINDOWS)},
         wall_s=round(wall, 1), machine=dict(python=platform.python_version(), numpy=np.__version__,
                                             date=time.strftime("%Y-%m-%d %H:%M")),

@@ -1,11 +1,12 @@
 # -*- coding: utf-8 -*-
 """Binary collisions of clumps in YADE at one time step: the collision map of the dt study.
 
-    python3 benchmarks/timestep_collisions_yade.py IN.json OUT.json
+    python -m studies.timestep.collisions_yade IN.json OUT.json      # from the repository's root
 
-(YADE 2023.02a: ``.venv/bin/python``; YADE 2025.2: ``scripts/debian13.sh run python3
-/repo/benchmarks/timestep_collisions_yade.py ...``.)  ``benchmarks/bench_timestep.py`` writes IN
-and reads OUT; nothing else uses this script.
+(YADE 2023.02a: ``.venv/bin/python -m ...``; YADE 2025.2: ``scripts/debian13.sh run env
+PYTHONPATH=/usr/lib/x86_64-linux-gnu/yade-double/py python3 -m ...``, as Debian's python3 does not
+have YADE's Python package on its path.)  ``studies.timestep.collisions.run_map`` writes IN and
+reads OUT; nothing else uses this module.
 
 IN holds the material, the time step, the body (members, radii, mass, principal moments, builder
 and route, exactly as ``studies.spec.run_input`` resolves them for the gas) and 2 n bodies: pair k
@@ -29,13 +30,7 @@ import os
 import sys
 import time
 
-os.environ["OMP_NUM_THREADS"] = "1"
-YADE_PY = "/usr/lib/x86_64-linux-gnu/yade-double/py"
-if YADE_PY not in sys.path:
-    sys.path.append(YADE_PY)
-ROOT = os.environ.get("CLUMPPROPS_ROOT") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+os.environ["OMP_NUM_THREADS"] = "1"     # before YADE is imported: one thread per process
 
 import numpy as np  # noqa: E402
 import yade  # noqa: E402
@@ -70,24 +65,9 @@ def vec(v):
     return np.array([float(v[0]), float(v[1]), float(v[2])])
 
 
-def main(inp, outp):
-    wall0 = time.time()
-    with open(inp) as f:
-        R = json.load(f)
-    body = R["body"]
-    route = body["route"]
-    dt = float(R["dt"])
-    pos0 = np.array(R["pos"], float)
-    ori0 = np.array(R["ori"], float).reshape(-1, 3, 3)
-    vel0 = np.array(R["vel"], float)
-    angvel0 = np.array(R["angvel"], float)
-    n = len(pos0)
-    MEMBERS = np.array(body["members"], float)
-    RADII = np.array(body["radii"], float)
-    MASS = float(body["mass"])
-    MOMENTS = np.array(body["moments"], float)
-    r_b = float(R["bounding_radius"])
-
+def _scene(R, route):
+    """Reset YADE to the gas's scene (no bodies yet): its material and the integrator's rotation
+    algorithm's name."""
     O.reset()
     mat = O.materials.append(FrictMat(young=R["material"]["youngs_modulus"], poisson=R["material"]["poisson"],
                                       density=R["material"]["density"], frictionAngle=0.0, label="grain"))
@@ -105,44 +85,49 @@ def main(inp, outp):
                         [Law2_ScGeom_MindlinPhys_Mindlin()]),
         newton,
     ]
+    return mat, rot_algorithm
 
-    # ---- bodies, as yade_scripts/granular_gas.py builds them ------------------------------------
-    parts = []
-    for i in range(n):
-        xs = pos0[i] + MEMBERS @ ori0[i].T
-        spheres = [utils.sphere(tuple(float(a) for a in xs[k]), float(RADII[k]), material=mat)
-                   for k in range(len(RADII))]
-        if body["builder"] == "clumpprops":
-            from clumpprops.yade import append_clump
-            cid, _ = append_clump(spheres, method="exact")
-        else:
-            cid, _ = O.bodies.appendClumped(spheres)
-        b = O.bodies[int(cid)]
-        b.state.mass = MASS
-        if route == "isotropic":
-            b.state.inertia = Vector3(*MOMENTS)
-            b.aspherical = False
-        else:
-            # YADE sums the members' inertia about the scene origin and diagonalises it: far from the
-            # origin that costs ~eps (|x|/k)^2 relative in the summed case (measured on the triangle
-            # trimer's 4000-pair lattice, |x| up to 890 m: median 2e-8, max 1.5e-7).  Check to 1e-6 (a
-            # wrong shape or mass is off by percents), then give every clump the case's moments, in
-            # YADE's principal frame (any frame, for a degenerate tensor).
-            # mass_scaled (benchmarks/case_map.py): the exact build's moments times moment_scale
-            got = np.array([float(x) for x in b.state.inertia]) * float(body.get("moment_scale", 1.0))
-            order = np.argsort(got)
-            if np.max(np.abs(got[order] / np.sort(MOMENTS) - 1)) > 1e-6:
-                raise AssertionError(f"{body['builder']} gave principal moments {got[order]!r}; "
-                                     f"expected {MOMENTS!r}")
-            fixed = np.empty(3)
-            fixed[order] = np.sort(MOMENTS)
-            b.state.inertia = Vector3(*(float(x) for x in fixed))
-            b.aspherical = True
-        parts.append(b)
-    com0 = np.array([vec(b.state.pos) for b in parts])
-    com_shift = float(np.max(np.abs(com0 - pos0)))
-    inertia = np.array([vec(b.state.inertia) for b in parts])
-    R0 = np.array([rotation(b) for b in parts])
+
+def _clump(body, route, mat, pos, ori):
+    """One clump of ``body`` at ``pos`` with orientation matrix ``ori``, as
+    ``yade_scripts/granular_gas.py`` builds it."""
+    members = np.array(body["members"], float)
+    radii = np.array(body["radii"], float)
+    moments = np.array(body["moments"], float)
+    xs = pos + members @ ori.T
+    spheres = [utils.sphere(tuple(float(a) for a in xs[k]), float(radii[k]), material=mat)
+               for k in range(len(radii))]
+    if body["builder"] == "clumpprops":
+        from clumpprops.yade import append_clump
+        cid, _ = append_clump(spheres, method="exact")
+    else:
+        cid, _ = O.bodies.appendClumped(spheres)
+    b = O.bodies[int(cid)]
+    b.state.mass = float(body["mass"])
+    if route == "isotropic":
+        b.state.inertia = Vector3(*moments)
+        b.aspherical = False
+    else:
+        # YADE sums the members' inertia about the scene origin and diagonalises it: far from the
+        # origin that costs ~eps (|x|/k)^2 relative in the summed case (measured on the triangle
+        # trimer's 4000-pair lattice, |x| up to 890 m: median 2e-8, max 1.5e-7).  Check to 1e-6 (a
+        # wrong shape or mass is off by percents), then give every clump the case's moments, in
+        # YADE's principal frame (any frame, for a degenerate tensor).
+        # mass_scaled (studies/maps.py): the exact build's moments times moment_scale
+        got = np.array([float(x) for x in b.state.inertia]) * float(body.get("moment_scale", 1.0))
+        order = np.argsort(got)
+        if np.max(np.abs(got[order] / np.sort(moments) - 1)) > 1e-6:
+            raise AssertionError(f"{body['builder']} gave principal moments {got[order]!r}; "
+                                 f"expected {moments!r}")
+        fixed = np.empty(3)
+        fixed[order] = np.sort(moments)
+        b.state.inertia = Vector3(*(float(x) for x in fixed))
+        b.aspherical = True
+    return b
+
+
+def _set_velocities(parts, route, vel0, angvel0, R0, inertia, dt):
+    """The initial velocities; the aspherical route's angular velocity carried back half a step."""
     for i, b in enumerate(parts):
         b.state.vel = Vector3(*vel0[i])
         if route == "aspherical":
@@ -152,12 +137,13 @@ def main(inp, outp):
             b.state.angMom = Vector3(*(R0[i] @ (inertia[i] * wb_half)))   # YADE 2023 integrates angMom
         else:
             b.state.angVel = Vector3(*angvel0[i])
-    O.dt = dt
 
-    # ---- run until every pair is apart and separating -------------------------------------------
+
+def _run_until_apart(R, parts, vel0, dt, r_b):
+    """Run until every pair is apart and separating (or t_max): (touched, apart, done) per pair."""
     check_steps = max(1, int(round(float(R.get("check_interval", 2e-3)) / dt)))
     t_max = float(R["t_max"])
-    pairs = np.arange(n).reshape(-1, 2)
+    pairs = np.arange(len(parts)).reshape(-1, 2)
     touched = np.zeros(len(pairs), bool)
     v_in = vel0.copy()
     done = False
@@ -172,6 +158,31 @@ def main(inp, outp):
         if apart.all() and not any(I.isReal for I in O.interactions):
             done = True
             break
+    return touched, apart, done
+
+
+def main(inp, outp):
+    """Run the collisions of IN (``inp``, JSON) and write OUT (``outp``, JSON)."""
+    wall0 = time.time()
+    with open(inp) as f:
+        R = json.load(f)
+    body = R["body"]
+    route = body["route"]
+    dt = float(R["dt"])
+    pos0 = np.array(R["pos"], float)
+    ori0 = np.array(R["ori"], float).reshape(-1, 3, 3)
+    vel0 = np.array(R["vel"], float)
+    angvel0 = np.array(R["angvel"], float)
+    n = len(pos0)
+    mat, rot_algorithm = _scene(R, route)
+    parts = [_clump(body, route, mat, pos0[i], ori0[i]) for i in range(n)]
+    com0 = np.array([vec(b.state.pos) for b in parts])
+    com_shift = float(np.max(np.abs(com0 - pos0)))
+    inertia = np.array([vec(b.state.inertia) for b in parts])
+    R0 = np.array([rotation(b) for b in parts])
+    _set_velocities(parts, route, vel0, angvel0, R0, inertia, dt)
+    O.dt = dt
+    touched, apart, done = _run_until_apart(R, parts, vel0, dt, float(R["bounding_radius"]))
     n_steps = O.iter
     # the last step: half-step angular velocities on both sides of the full-step orientation
     w_before = np.array([rotation(b).T @ vec(b.state.angVel) for b in parts])

@@ -1,7 +1,7 @@
 """The effect of each case's mass properties on D, predicted from binary collisions (issue 12).
 
-    .venv/bin/python benchmarks/case_map.py                         # the paper's dimer, 10,000 collisions
-    .venv/bin/python benchmarks/case_map.py --pairs 2000 --quick    # a look (~1 CPU-min)
+    .venv/bin/python -m studies case-map                         # the paper's dimer, 10,000 collisions
+    .venv/bin/python -m studies case-map --pairs 2000 --quick    # a look (~1 CPU-min)
 
 An independent route to the gas study's answers, at a few CPU-minutes instead of CPU-days.  In the
 first Chapman-Enskog approximation (Mason-Monchick for bodies with rotation) the self-diffusion
@@ -11,7 +11,7 @@ coefficient of a dilute gas is [D]_1 = 3 kT / (8 n m Omega11), with the collisio
 
 Q1 = int (1 - g'.g / g^2) dsigma the momentum-transfer cross-section averaged over orientations
 and spins at equilibrium (g' != g when translation and rotation exchange energy).  Drawing the
-collisions as the dt study does (``bench_timestep.make_pairs``: gamma^2 ~ Gamma(2), the
+collisions as the dt study does (``studies.timestep.collisions.make_pairs``: gamma^2 ~ Gamma(2), the
 collision-flux weight; impact parameter uniform over a disc; equilibrium orientations and spins),
 Omega11 ~ sqrt(kT/mu) <gamma^2 q>, q = 1 - g'.g/g^2, and for two cases of one shape
 
@@ -34,6 +34,8 @@ the exact build with mass and moments set to lambda times exact's).  A case's sp
 exact's normal draws rescaled axis by axis, so the members' frame must be principal for both
 inertia tensors (checked; true for these symmetric shapes).
 """
+from __future__ import annotations
+
 import argparse
 import json
 import math
@@ -44,10 +46,11 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_timestep as bt  # noqa: E402
+from . import gas_model as gm
+from . import shapes as shp
+from .timestep import collisions as tc
 
-ROOT = bt.ROOT
+ROOT = tc.ROOT
 OUT = os.path.join(ROOT, "results", "collision_map", "case_map.json")  # the report reads results/collision_map/
 CASES = [("uncorrected", "paired"), ("mass_only", "paired"), ("inertia_only", "paired"),
          ("mass_scaled", "paired"), ("uncorrected", "equal_energy")]
@@ -57,18 +60,18 @@ CASES = [("uncorrected", "paired"), ("mass_only", "paired"), ("inertia_only", "p
 
 
 def case_input(base, shape, case, protocol):
-    """The exact collision courses ``base`` (bench_timestep.make_pairs) with the body and the state of
+    """The exact collision courses ``base`` (``studies.timestep.collisions.make_pairs``) with the body and the state of
     ``case`` in ``protocol`` (see the module docstring).  Returns (input, kT/m ratio to exact)."""
-    props = bt.shp.properties(shape, bt.MATERIAL["density"])
-    ex = bt.gm.resolve_case(props, "exact")
+    props = shp.properties(shape, tc.MATERIAL["density"])
+    ex = gm.resolve_case(props, "exact")
     lam = 1.0
     if case == "mass_scaled":
         lam = props["sum"]["mass"] / props["exact"]["mass"]
         cr = dict(ex, mass=ex["mass"] * lam, moments=[lam * m for m in ex["moments"]])
         i_body_c = np.asarray(props["exact"]["inertia"]) * lam
     else:
-        cr = bt.gm.resolve_case(props, case)
-        i_body_c = np.asarray(props[bt.gm.CASE_SOURCES[case][1]]["inertia"])   # "exact" or "sum"
+        cr = gm.resolve_case(props, case)
+        i_body_c = np.asarray(props[gm.CASE_SOURCES[case][1]]["inertia"])   # "exact" or "sum"
     i_body_e = np.asarray(props["exact"]["inertia"])
     for t in (i_body_e, i_body_c):   # make_pairs draws spins in the members' frame: it must be principal
         if np.max(np.abs(t - np.diag(np.diag(t)))) > 1e-12 * np.max(np.abs(t)):
@@ -85,7 +88,7 @@ def case_input(base, shape, case, protocol):
     inp = dict(base)
     inp["body"] = {"builder": cr["builder"], "route": cr["route"], "mass": m_c, "moments": cr["moments"],
                    "members": props["members"], "radii": props["radii"]}
-    if lam != 1.0:   # aspherical route: the builder's (exact) moments times lam (timestep_collisions_yade.py)
+    if lam != 1.0:   # aspherical route: the builder's (exact) moments times lam (studies/timestep/collisions_yade.py)
         inp["body"]["moment_scale"] = lam
     inp["vel"] = (np.asarray(base["vel"]) * v_scale).tolist()
     inp["angvel"] = np.einsum("nij,nj->ni", ori, wb).tolist()
@@ -103,7 +106,7 @@ def relaxation_time_n(x, q, kT, m, area):
     and q = 1 - g'.g/g^2 per collision course drawn with the collision-flux weight; D = kT tau / m
     recovers [D]_1 above).  Hard spheres of diameter sigma with A = pi sigma^2 have <x q> = 2 and
     tau n = (m / kT) 3 / (8 sigma^2) sqrt(kT / (pi m)).  The gas study's records measure tau from
-    the first seconds of their velocity autocorrelation (studies.estimators.initial_decay_time)."""
+    the first seconds of their velocity autocorrelation (studies.diffusion.initial_decay_time)."""
     a = np.asarray(x) * np.asarray(q)
     mean = float(a.mean())
     se = float(a.std(ddof=1) / math.sqrt(len(a)))
@@ -123,8 +126,9 @@ def ratio(x, q_e, q_c, kt_m_ratio, full=False):
     return (r - 1.0, se, d) if full else (r - 1.0, se)
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def _parser():
+    ap = argparse.ArgumentParser(prog="python -m studies case-map", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pairs", type=int, default=10000)
     ap.add_argument("--seed", type=int, default=17)
     ap.add_argument("--factor", type=float, default=0.5, help="dt factor (the studies: 0.5 or 1.0)")
@@ -135,46 +139,40 @@ def main():
     ap.add_argument("--workdir", default=None, help="keep the YADE runs here (reused by a repeated call)")
     ap.add_argument("--out", default=OUT)
     ap.add_argument("--quick", action="store_true", help="do not write --out")
-    a = ap.parse_args()
-    if a.youngs_modulus:
-        bt.MATERIAL["youngs_modulus"] = a.youngs_modulus
-    shape = {"kind": a.shape, "sphere_diameter": 0.1333, "overlap": a.overlap}
-    linear = bt.shp.properties(shape, bt.MATERIAL["density"])["linear"]
-    yade = "2023.02a" if linear else "2025.2"
-    cases = list(CASES)
-    work = a.workdir or tempfile.mkdtemp(prefix="case_map-")
-    os.makedirs(work, exist_ok=True)
-    t0 = time.time()
-    base = bt.make_pairs(shape, a.pairs, a.seed)
-    # the lattice of pairs 1.5x wider: the faster spins of some cases must not reach a neighbour
+    return ap
+
+
+def wide_pairs(shape, n_pairs, seed):
+    """The collision courses of ``tc.make_pairs`` on a lattice 1.5x wider: the faster spins of some
+    cases must not reach a neighbour."""
+    base = tc.make_pairs(shape, n_pairs, seed)
     p = np.asarray(base["pos"])
     mid = 0.5 * (p[0::2] + p[1::2])
     p += np.repeat(0.5 * mid, 2, axis=0)
     base["pos"], base["spacing"], base["lattice"] = p.tolist(), 1.5 * base["spacing"], (1.5 * mid).tolist()
-    tag = f"{a.shape}-d{a.overlap}-E{bt.MATERIAL['youngs_modulus']:g}-n{a.pairs}-s{a.seed}"
-    runs = {("exact", "paired"): (base, 1.0)}
-    for case, prot in cases:
-        runs[(case, prot)] = case_input(base, shape, case, prot)
+    return base
+
+
+def _run_cases(runs, a, yade, work, tag):
+    """Run every (case, protocol) of ``runs`` in YADE: their outcomes and the CPU seconds spent."""
     res, cpu = {}, 0.0
     for (case, prot), (inp, _) in runs.items():
-        out = bt.run_map(inp, a.factor, yade, work, f"{tag}-{case}-{prot}")
+        out = tc.run_map(inp, a.factor, yade, work, f"{tag}-{case}-{prot}")
         cpu += out.get("cpu_s", 0.0)
-        res[(case, prot)] = bt.outcome(inp, out)
+        res[(case, prot)] = tc.outcome(inp, out)
         print(f"[case_map] {case} {prot}: {int(res[(case, prot)]['touched'].sum())} of {a.pairs} collided, "
               f"cpu {out.get('cpu_s', float('nan')):.0f} s{' (reused)' if out.get('reused') else ''}", flush=True)
-    ok = np.ones(a.pairs, bool)
-    for r in res.values():
-        ok &= r["apart"]
+    return res, cpu
+
+
+def _ratio_rows(runs, res, base, x, ok):
+    """Per case: D_case/D_exact - 1 with its se, the hard-particle value and the body's errors (printed
+    as a table); also each case's per-collision influence values."""
     ex = res[("exact", "paired")]
-    x = np.asarray(base["g"]) ** 2 * (base["body"]["mass"] / 2) / (2 * base["kT"])   # gamma^2 = mu g^2 / 2kT
-    props = bt.shp.properties(shape, bt.MATERIAL["density"])
-    rows = []
-    print(f"\n{a.shape}, D/d_s = {a.overlap}, YADE {yade}, E = {bt.MATERIAL['youngs_modulus']:g} Pa, "
-          f"{int(ok.sum())} collision courses, dt factor {a.factor}; first Chapman-Enskog (Mason-Monchick):")
     print(f"{'case':>14} {'protocol':>13} | {'D_case/D_exact - 1':>18} | {'se':>7} | hard particles | "
           f"mass err. | I_perp/m err.")
-    infl = {}
-    for case, prot in cases:
+    rows, infl = [], {}
+    for case, prot in CASES:
         inp, ktm = runs[(case, prot)]
         rel, se, infl[(case, prot)] = ratio(x[ok], ex["q"][ok], res[(case, prot)]["q"][ok], ktm, full=True)
         hard = math.sqrt(ktm) - 1.0
@@ -185,33 +183,63 @@ def main():
                      "mass_error": m_err, "iperp_over_m_error": k2})
         print(f"{case:>14} {prot:>13} | {100 * rel:+17.2f} % | {100 * se:6.2f} % | {100 * hard:+13.2f} % | "
               f"{100 * m_err:+9.1f} % | {100 * k2:+8.1f} %")
+    return rows, infl
+
+
+def _minus_mass_scaled(rows, infl):
+    """Each paired case's effect beyond the softness of its mass: the difference from ``mass_scaled``
+    of equal mass, with its paired se over the same collisions (added to the rows)."""
     sc = next((r for r in rows if r["case"] == "mass_scaled"), None)
-    for r in rows if sc else []:   # each case's effect beyond the softness of its mass (paired se over the same collisions)
+    for r in rows if sc else []:
         if r["protocol"] == "paired" and r["case"] != "mass_scaled" and r["mass_error"] == sc["mass_error"]:
             dd = infl[(r["case"], "paired")] - infl[("mass_scaled", "paired")]
             r["minus_mass_scaled"] = r["relative"] - sc["relative"]
             r["minus_mass_scaled_se"] = float(dd.std(ddof=1) / math.sqrt(len(dd)))
             print(f"{r['case']:>14} minus mass_scaled (the k² part): {100 * r['minus_mass_scaled']:+.2f} % "
                   f"± {100 * r['minus_mass_scaled_se']:.2f} % (se)")
+
+
+def main(argv=None):
+    """``python -m studies case-map [options]``: one shape's collision map for every case; writes
+    ``--out`` (unless ``--quick``), recording ``argv`` (default ``sys.argv[1:]``)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    a = _parser().parse_args(argv)
+    if a.youngs_modulus:
+        tc.MATERIAL["youngs_modulus"] = a.youngs_modulus
+    shape = {"kind": a.shape, "sphere_diameter": 0.1333, "overlap": a.overlap}
+    linear = shp.properties(shape, tc.MATERIAL["density"])["linear"]
+    yade = "2023.02a" if linear else "2025.2"
+    work = a.workdir or tempfile.mkdtemp(prefix="case_map-")
+    os.makedirs(work, exist_ok=True)
+    t0 = time.time()
+    base = wide_pairs(shape, a.pairs, a.seed)
+    tag = f"{a.shape}-d{a.overlap}-E{tc.MATERIAL['youngs_modulus']:g}-n{a.pairs}-s{a.seed}"
+    runs = {("exact", "paired"): (base, 1.0)}
+    for case, prot in CASES:
+        runs[(case, prot)] = case_input(base, shape, case, prot)
+    res, cpu = _run_cases(runs, a, yade, work, tag)
+    ok = np.ones(a.pairs, bool)
+    for r in res.values():
+        ok &= r["apart"]
+    x = np.asarray(base["g"]) ** 2 * (base["body"]["mass"] / 2) / (2 * base["kT"])   # gamma^2 = mu g^2 / 2kT
+    print(f"\n{a.shape}, D/d_s = {a.overlap}, YADE {yade}, E = {tc.MATERIAL['youngs_modulus']:g} Pa, "
+          f"{int(ok.sum())} collision courses, dt factor {a.factor}; first Chapman-Enskog (Mason-Monchick):")
+    rows, infl = _ratio_rows(runs, res, base, x, ok)
+    _minus_mass_scaled(rows, infl)
     area = math.pi * (2.0 * base["bounding_radius"]) ** 2       # make_pairs' impact-parameter disc
-    relax = {}
-    for (case, prot), (inp, _) in runs.items():
-        relax[f"{case}/{prot}"] = relaxation_time_n(x[ok], res[(case, prot)]["q"][ok], inp["kT"],
-                                                    inp["body"]["mass"], area)
+    relax = {f"{case}/{prot}": relaxation_time_n(x[ok], res[(case, prot)]["q"][ok], inp["kT"], inp["body"]["mass"], area)
+             for (case, prot), (inp, _) in runs.items()}
     print("first Chapman-Enskog velocity relaxation time x number density (s m^-3): "
           + ", ".join(f"{k} {v[0]:.2f} ± {v[1]:.2f}" for k, v in relax.items()))
     print(f"\n[total] CPU of the YADE runs {cpu / 60:.1f} min, wall {(time.time() - t0) / 60:.1f} min")
     if not a.quick:
-        res_json = {"argv": sys.argv[1:], "shape": shape, "material": bt.MATERIAL, "pairs": a.pairs,
+        res_json = {"argv": argv, "shape": shape, "material": tc.MATERIAL, "pairs": a.pairs,
                     "pairs_used": int(ok.sum()), "seed": a.seed, "dt_factor": a.factor, "spin_pairing": "own",
-                    "energy_per_particle": bt.ENERGY, "rows": rows,
+                    "energy_per_particle": tc.ENERGY, "rows": rows,
                     "relaxation_time_n": {k: {"value": v[0], "se": v[1]} for k, v in relax.items()},
                     "cpu_s": cpu, "date": time.strftime("%Y-%m-%d")}
         os.makedirs(os.path.dirname(a.out), exist_ok=True)
         with open(a.out, "w") as f:
             json.dump(res_json, f, indent=1)
         print(f"wrote {os.path.relpath(a.out, ROOT)}")
-
-
-if __name__ == "__main__":
-    main()
+    return 0

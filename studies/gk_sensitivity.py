@@ -1,8 +1,8 @@
 """How much D of committed runs depends on the Green-Kubo estimator's choices (issue 12).
 
-    .venv/bin/python benchmarks/gk_sensitivity.py                        # results/sphere_gas
-    .venv/bin/python benchmarks/gk_sensitivity.py results/dimer_paired    # any study's records
-    .venv/bin/python benchmarks/gk_sensitivity.py results/shapes --pair tet-exact-paired tet-uncorrected-equal_energy
+    .venv/bin/python -m studies gk-sensitivity                        # results/sphere_gas
+    .venv/bin/python -m studies gk-sensitivity results/dimer_paired    # any study's records
+    .venv/bin/python -m studies gk-sensitivity results/shapes --pair tet-exact-paired tet-uncorrected-equal_energy
 
 Reads the reduced run records (no simulation) and recomputes D of each run from its stored
 velocity autocorrelation with other truncations and tail-fit windows, with the plain integral to
@@ -15,7 +15,7 @@ that does not, does not.
 ``--pair A B`` compares two run sets seed by seed (A and B are run names without their ``-s<seed>-<key>``
 ending): for each variant the mean over seeds of D_B/D_A - 1 with its 95 % t-interval (the seeds are
 the independent units), as the report pairs them.  Two more rows need no tail model at all: the
-first seconds (D_init = C(0) tau_init / 3, ``estimators.initial_decay_time``) and the VACF's shape
+first seconds (D_init = C(0) tau_init / 3, ``diffusion.initial_decay_time``) and the VACF's shape
 factor D/D_init, which is 1 for an exponential VACF; its paired ratio is the part of a Green-Kubo
 ratio that the first seconds do not see.  Each set's mean tau_hat and shape factor are printed too.
 A run set with two runs of one seed (runs of other parameters, such as another time step) is
@@ -23,9 +23,11 @@ refused: pass the results directory of one parameter set.
 
 Windows beyond the stored lags: a variant whose truncation t_c lies beyond the last lag gives no D
 for that run (n/a, left out of the count of pairs); a tail-fit window that reaches past the last
-lag is clipped there (``estimators.diffusion_green_kubo``), and the output says in how many runs
+lag is clipped there (``diffusion.diffusion_green_kubo``), and the output says in how many runs
 or pairs that happened.
 """
+from __future__ import annotations
+
 import argparse
 import glob
 import json
@@ -35,10 +37,8 @@ import sys
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-
-from studies import diffusion, intervals  # noqa: E402
+from . import diffusion, intervals
+from .spec import ROOT
 
 VARIANTS = {  # name: (truncation in tau_hat, tail-fit window in tau_hat)
     "t_c = 1 tau, fit 1-3 tau": (1.0, (1.0, 3.0)),
@@ -161,14 +161,16 @@ def paired(rows, a, b):
     return out, sets
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def main(argv=None):
+    """``python -m studies gk-sensitivity [RESULTS] [--case C] [--pair A B]``: prints the tables."""
+    ap = argparse.ArgumentParser(prog="python -m studies gk-sensitivity", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results", nargs="?", default=os.path.join(ROOT, "results", "sphere_gas"))
     ap.add_argument("--case", default=None, help="only runs of this case (e.g. exact)")
     ap.add_argument("--pair", nargs=2, metavar=("A", "B"), default=None,
                     help="compare run sets A and B seed by seed (run names without -s<seed>-<key>), "
                          "e.g. tet-exact-paired tet-uncorrected-equal_energy")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     paths = sorted(glob.glob(os.path.join(a.results, "runs", "*.json")))
     if a.case:
         paths = [p for p in paths if f"-{a.case}-" in os.path.basename(p)]

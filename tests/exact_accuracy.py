@@ -1,7 +1,8 @@
 """Accuracy of method="exact" against the independent slicing reference (docs/exact_accuracy.md).
 
-Run:  .venv/bin/python benchmarks/exact_accuracy.py
-Prints, for three kinds of clump, the relative errors of exact vs the reference
+Run:  .venv/bin/python tests/exact_accuracy.py
+(as a script: Python puts tests/ on sys.path, where the reference lives; clumpprops is the installed
+package, the repository's own in the editable install ``make setup`` makes).  Prints, for three kinds of clump, the relative errors of exact vs the reference
 (tests/reference_slicing.py: exact cross-sections by Green's theorem, quad over z):
 volume |dV|/V, centre of mass |dcom|/L (L = clump extent), inertia max|dI_ij|/max|I_ij|,
 plus the reference's own quad error estimate (relative, max over the 10 moments).
@@ -9,16 +10,12 @@ plus the reference's own quad error estimate (relative, max over the 10 moments)
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
 
 import numpy as np
+import reference_slicing as rs
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-import reference_slicing as rs  # noqa: E402
-
-from clumpprops import mass_properties  # noqa: E402
+from clumpprops import mass_properties
 
 
 def triple10():

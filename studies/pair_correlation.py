@@ -1,7 +1,7 @@
 """How much pairing helps: the correlation of D between a case's run and the exact run of its seed.
 
-    .venv/bin/python benchmarks/pair_correlation.py            # every spec in the results
-    .venv/bin/python benchmarks/pair_correlation.py --min-pairs 12
+    .venv/bin/python -m studies pair-correlation            # every spec in the results
+    .venv/bin/python -m studies pair-correlation --min-pairs 12
 
 Reads the committed run records (no simulation; D by Green-Kubo as the report computes it,
 ``studies.effects.collect``) and prints, per paired comparison (pair key, case, protocol) with at
@@ -20,15 +20,13 @@ hypothesis: run length, stiffness and time step change together between the stud
 Fisher-z interval assumes a bivariate normal pair over seeds (coverage 94.7 % and 95.3 % at 16
 pairs, rho 0.4 and 0, 2,000 replicas: tests/test_pair_correlation.py).
 """
+from __future__ import annotations
+
 import argparse
-import os
 import sys
 
 import numpy as np
 from scipy import stats
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 
 def pair_stats(d_exact, d_case):
@@ -50,15 +48,17 @@ def pair_stats(d_exact, d_case):
 
 def _shape(p):
     """The shape as effects.csv names it, with its overlap for a dimer: "dimer 0.5"."""
-    from studies import effects
+    from . import effects
     d = p["shape"]["definition"]
     return f"{effects.shape_name(d)} {d.get('overlap', '')}".strip()
 
 
 def main(argv=None):
-    from studies import effects
+    """``python -m studies pair-correlation [--min-pairs N]``: prints the table (``make science``
+    writes it to results/pairing/pair_correlation.txt)."""
+    from . import effects
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m studies pair-correlation", description=__doc__.split("\n")[0])
     ap.add_argument("--min-pairs", type=int, default=8, help="leave out comparisons with fewer pairs (default 8)")
     args = ap.parse_args(argv)
     by, facts, _, studies = effects.collect(effects.results_specs())

@@ -1,31 +1,34 @@
 """What LIGGGHTS and LAMMPS compute for a clump without clumpprops, against the exact values.
 
-    .venv/bin/python benchmarks/engine_errors.py
+    .venv/bin/python tests/engine_errors.py
+
+(as a script: Python puts tests/ on sys.path, whose engine helpers ``_engines`` it shares with the
+engine tests; clumpprops is the installed package, the repository's own in the editable install
+``make setup`` makes.)
 
 Clumps: the paper's dimer (d = 0.1333 m, D = d/2, rho = 1140 kg/m^3) and a 10-sphere
 clump with heavy (also triple) overlaps (seed 3, below).  Runs Debian's liggghts 3.8.0
 (``particletemplate/multisphere`` without ``mass``/``inertia_tensor``: its Monte Carlo over
 ntry points, values from its log, 7 digits) and lmp (``fix rigid/small`` without infile:
 summed spheres, values from ``compute rigid/local``).  Prints relative errors and writes
-benchmarks/results/engine_errors.json.
+results/engines/engine_errors.json.
 """
 from __future__ import annotations
 
 import json
 import re
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from _engines import LAMMPS, LIGGGHTS, quat_to_matrix, read_dump
+
+from clumpprops import mass_properties
+from clumpprops.io import Clump, export
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
-from clumpprops import mass_properties  # noqa: E402
-from clumpprops.io import Clump, export  # noqa: E402
-from _engines import LAMMPS, LIGGGHTS, quat_to_matrix, read_dump  # noqa: E402
+OUT = ROOT / "results" / "engines" / "engine_errors.json"
 
 RHO = 1140.0
 D = 0.1333
@@ -58,7 +61,7 @@ fix pts1 all particletemplate/multisphere {seed} atom_type 1 density constant 11
 
 
 def liggghts_mc(clump, ntry, seed, work):
-    export([clump], "liggghts", work, density=RHO)
+    export([clump], "liggghts", work, density=RHO, force=True)   # once per seed: the same files again
     (work / "in.mc").write_text(LIG.format(seed=seed, n=clump.n_spheres, ntry=ntry, file=f"{clump.name}.multisphere"))
     subprocess.run([LIGGGHTS, "-in", "in.mc", "-log", "log.mc"], cwd=work, capture_output=True, check=True, timeout=600)
     log = (work / "log.mc").read_text()
@@ -125,8 +128,8 @@ def main():
                 print(f"  {k:45s} mass {100 * e['mass']:+8.3f} %  moments "
                       + " ".join(f"{100 * x:+8.3f} %" for x in e["principal_moments"])
                       + f"  tensor {100 * e['tensor_max_over_I3']:.3f} % of I3")
-    (ROOT / "benchmarks" / "results").mkdir(exist_ok=True)
-    (ROOT / "benchmarks" / "results" / "engine_errors.json").write_text(json.dumps(out, indent=1) + "\n")
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(json.dumps(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":
