@@ -137,7 +137,7 @@ def may_start(run, results_dir, now=None):
     """False when a drain forbids ``run`` to start: a drain now, or a deadline that the run's expected
     wall time times :data:`DRAIN_MARGIN` would overshoot.  The expected wall time [s] is
     ``run["expected_wall_s"]`` if given, else from the records under ``results_dir`` finished by
-    now (:func:`studies.design.expected_wall_s_in`): the median of the runs like it, or, before the
+    now (:func:`studies.cost.expected_wall_s_in`): the median of the runs like it, or, before the
     first of them, an upper bound from the runs at another stiffness or length.  A run of unknown
     length never fits a deadline."""
     deadline = drain_deadline(results_dir)
@@ -148,7 +148,7 @@ def may_start(run, results_dir, now=None):
         return False
     expected = run.get("expected_wall_s")
     if expected is None and "params" in run:      # from the records finished by now, not at queueing
-        from .design import expected_wall_s_in
+        from .cost import expected_wall_s_in
         expected = expected_wall_s_in(results_dir, run["params"])
     return expected is not None and now + DRAIN_MARGIN * float(expected) <= deadline
 
