@@ -223,11 +223,12 @@ class Driver:
         todo = [r for r in self.runs if r["key"] not in self.attempted and wanted(self.rows[r["key"]])]
         given_up = [r for r in self.runs if self.rows[r["key"]]["status"] == "failed"
                     and int(self.rows[r["key"]]["attempts"]) >= self.max_attempts]
-        todo.sort(key=lambda r: -_priority(r, self.schedule))     # --max-runs keeps the first in the schedule
-        return self._capped(todo), given_up
+        return self._queue(todo), given_up
 
-    def _capped(self, runs):
-        """The first of ``runs`` that ``max_runs`` still allows this sweep to submit."""
+    def _queue(self, runs):
+        """``runs`` in the schedule's order, cut to what ``max_runs`` still allows this sweep to
+        submit (``--max-runs`` keeps the first in the schedule)."""
+        runs = sorted(runs, key=lambda r: -_priority(r, self.schedule))
         if self.options.max_runs is None:
             return runs
         return runs[:max(0, self.options.max_runs - self.tally.submitted)]
@@ -356,9 +357,8 @@ class Driver:
             if r["key"] not in self.rows:
                 self.runs.append(r)
                 self.rows[r["key"]] = old_rows[r["key"]]
-        new = sorted((r for r in self.runs if self.rows[r["key"]]["status"] == "todo" and r["key"] not in self.attempted),
-                     key=lambda r: -_priority(r, self.schedule))
-        new = self._capped(new)
+        new = self._queue([r for r in self.runs
+                           if self.rows[r["key"]]["status"] == "todo" and r["key"] not in self.attempted])
         self._write_manifest()
         if new:
             self._submit(new)

@@ -15,9 +15,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # `studies` without -m
 
 import numpy as np
 import pandas as pd
@@ -594,3 +591,14 @@ def test_a_manifest_row_keeps_the_old_rows_state_and_takes_the_runs_identity():
     row = manifest.new_row(run, old)
     assert row["name"] == run["name"] and row["status"] == "failed" and row["attempts"] == 2
     assert row["error"] == "boom" and row["wall_s"] == "3.0" and row["yade_version"] == ""
+
+
+def test_max_runs_runs_the_first_runs_of_the_schedule_and_leaves_the_rest_to_do(tmp_path):
+    sp = tiny(tmp_path, t_end=1.0, cases=("exact", "uncorrected"), seeds=(1, 2))
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, max_runs=1, log=lines.append)
+    done = [r["name"] for r in rows.values() if r["status"] == "done"]
+    assert done == [next(r["name"] for r in S.runs(sp) if r["seed"] == 1 and r["case"] == "exact")], rows
+    assert sum(r["status"] == "todo" for r in rows.values()) == 3
+    assert "4 runs, 0 already complete, 1 to do" in lines[0]
+    assert lines[-1].startswith("[study] finished 1 runs in ") and lines[-1].endswith(": 1 ok, 0 flagged, 0 failed")
