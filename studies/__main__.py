@@ -49,6 +49,22 @@ STUDIES = {"timestep": ".timestep.study", "case-map": ".maps", "gk-sensitivity":
            "estimator-validation": ".estimator_validation", "pair-correlation": ".pair_correlation"}
 
 
+def _sweep(a, spec):
+    """Run the spec's missing runs (``sweep``, and the first step of ``run``); False when ``run``
+    must stop there: the sweep was drained with runs left to do (a deadline drain that refused
+    nothing leaves none)."""
+    from . import engine
+
+    rows = engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
+                        allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
+    if (a.command == "run" and os.path.exists(os.path.join(engine.results_dir(spec), engine.DRAIN))
+            and any(r["status"] == "todo" for r in rows.values())):
+        print(f"[run] the sweep was drained ({engine.DRAIN} in the results directory): runs remain to do, "
+              "so no analysis; run again to resume", file=sys.stderr)
+        return False
+    return True
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in STUDIES:
@@ -88,15 +104,8 @@ def main(argv=None):
         from . import prepare
         prepare.write(spec, a.out or "runs_prepared")
         return 0
-    if a.command in ("run", "sweep"):
-        rows = engine.sweep(spec, scheduler=a.scheduler, workers=a.workers, yade=a.yade, keep_raw=a.keep_raw,
-                            allow_dirty=a.allow_dirty, max_runs=a.max_runs, progress_every=a.progress_every)
-        # drained with runs left to do (a deadline drain that refused nothing leaves none)
-        if (a.command == "run" and os.path.exists(os.path.join(engine.results_dir(spec), engine.DRAIN))
-                and any(r["status"] == "todo" for r in rows.values())):
-            print(f"[run] the sweep was drained ({engine.DRAIN} in the results directory): runs remain to do, "
-                  "so no analysis; run again to resume", file=sys.stderr)
-            return 1
+    if a.command in ("run", "sweep") and not _sweep(a, spec):
+        return 1
     if a.command == "status":
         rows = engine.status(spec)
         from collections import Counter

@@ -26,6 +26,8 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
 """
 from __future__ import annotations
 
+import dataclasses
+import functools
 import json
 
 import numpy as np
@@ -33,6 +35,8 @@ import numpy as np
 from . import diffusion, equilibration, intervals, sequential
 from . import reduce as red
 from . import spec as S
+from .cost import (_key_without, _median_like, _run_cost, cost_scale, expected_wall_s,  # noqa: F401
+                   expected_wall_s_in, read_records)
 
 ESTIMATOR = "green_kubo"
 
@@ -155,38 +159,13 @@ def plan(spec, rdir, recs=None):
     its target is not met, it has fewer than ``max_seeds`` seeds, and the budget allows.
     """
     recs = load_records(spec, rdir) if recs is None else recs
-    budget = spec["study"].get("budget_cpu_hours")
     spent = cpu_hours(recs)
-    t_eq = spec["analysis"]["t_eq"]
     extra, status = {}, {}
     for gi, g in enumerate(spec["groups"]):
-        tgt = g.get("target")
-        if not tgt:
+        if not g.get("target"):
             continue
-        seeds = list(g["seeds"])
+        seeds, pairs, st = _grow_group(spec, gi, recs, spent)
         nxt = max(seeds) + 1
-        while True:
-            runs = _sequential_runs(spec, gi, seeds)
-            finished = all(r["key"] in recs for r in runs)
-            pairs = paired_relative(recs, runs, tgt["case"], t_eq)
-            st = sequential.sequential_status([v for _, v in pairs], tgt["halfwidth"], max_n=g["max_seeds"])
-            st.update(case=tgt["case"], target=tgt["halfwidth"], seeds=len(seeds), finished=finished,
-                      cpu_hours=spent, budget_cpu_hours=budget)
-            if not finished:
-                st["state"] = "running" if any(r["key"] in recs for r in runs) else "not started"
-                break
-            if st["met"]:
-                st["state"] = "target met"
-                break
-            if len(seeds) >= g["max_seeds"]:
-                st["state"] = "max_seeds reached"
-                break
-            if budget is not None and spent >= budget:
-                st["state"] = "budget spent"
-                break
-            k = min(tgt["batch"], g["max_seeds"] - len(seeds))
-            seeds += list(range(nxt, nxt + k))
-            nxt += k
         extra[gi] = [s for s in seeds if s not in g["seeds"]]
         st["cpu_hours_per_pair"] = pair_cost(spec, gi, nxt, recs)
         n_more = None if st.get("n_needed") is None else max(0, st["n_needed"] - st["n"])
@@ -198,101 +177,38 @@ def plan(spec, rdir, recs=None):
     return extra, status
 
 
-def _key_without(params, top=("seed",), material=(), run=()):
-    """A run's parameters as a comparable string, without the keys named: ``top`` of the parameters
-    themselves, ``material`` of its material table, ``run`` of its run table."""
-    q = {k: v for k, v in params.items() if k not in top}
-    q["material"] = {k: v for k, v in params["material"].items() if k not in material}
-    q["run"] = {k: v for k, v in params["run"].items() if k not in run}
-    return json.dumps(q, sort_keys=True, default=str)
+def _grow_group(spec, gi, recs, spent):
+    """A sequential group's seeds, ``batch`` more at a time while all its runs are finished and it
+    may grow; returns (seeds, its paired values [(seed, value)], its status dict with ``state``)."""
+    g = spec["groups"][gi]
+    target = g["target"]
+    budget = spec["study"].get("budget_cpu_hours")
+    seeds = list(g["seeds"])
+    while True:
+        runs = _sequential_runs(spec, gi, seeds)
+        finished = all(r["key"] in recs for r in runs)
+        pairs = paired_relative(recs, runs, target["case"], spec["analysis"]["t_eq"])
+        st = sequential.sequential_status([v for _, v in pairs], target["halfwidth"], max_n=g["max_seeds"])
+        st.update(case=target["case"], target=target["halfwidth"], seeds=len(seeds), finished=finished,
+                  cpu_hours=spent, budget_cpu_hours=budget)
+        st["state"] = _stop_state(st, runs, recs, len(seeds), g["max_seeds"], budget, spent)
+        if st["state"] is not None:
+            return seeds, pairs, st
+        nxt = max(seeds) + 1
+        seeds += list(range(nxt, nxt + min(target["batch"], g["max_seeds"] - len(seeds))))
 
 
-def _cost_key(params):
-    """A run's parameters without its seed and time-step factor: runs that cost the same per step
-    (same shape, case, protocol, stiffness, length, gas)."""
-    return _key_without(params, run=("dt_factor",))
-
-
-def _median_like(p, recs, value):
-    """Median of ``value(record)`` [s] over the finished runs of the case, protocol and time step of
-    resolved run parameters ``p`` (any seed).  Without a run at that time step, the runs at other
-    factors, each scaled by its factor over p's (the number of steps goes as 1/dt); None while there
-    is none."""
-    key = _cost_key(p)
-    same = [r for r in recs.values() if _cost_key(r["params"]) == key]
-    f = p["run"]["dt_factor"]
-    xs = [value(r) for r in same if r["params"]["run"]["dt_factor"] == f]
-    if not xs:
-        xs = [value(r) * r["params"]["run"]["dt_factor"] / f for r in same]
-    return float(np.median(xs)) if xs else None
-
-
-def _run_cost(p, recs):
-    """Median CPU-hours of the finished runs like ``p`` (:func:`_median_like`); None while there is none."""
-    c = _median_like(p, recs, lambda r: r.get("cpu_s", r["wall_s"]))
-    return None if c is None else c / 3600.0
-
-
-def read_records(pattern):
-    """Every finished run record among the files matching the glob ``pattern`` (dict by path);
-    unreadable files and other JSON are skipped."""
-    import glob
-
-    recs = {}
-    for path in glob.glob(pattern):
-        try:
-            with open(path) as f:
-                rec = json.load(f)
-        except (OSError, ValueError):
-            continue
-        if isinstance(rec, dict) and "params" in rec and "wall_s" in rec:
-            recs[path] = rec
-    return recs
-
-
-def expected_wall_s_in(rdir, p):
-    """:func:`expected_wall_s` from every record under ``rdir``/runs (what a worker sees when a run
-    is about to start; no spec needed)."""
-    import os
-
-    return expected_wall_s(p, read_records(os.path.join(rdir, "runs", "*.json")))
-
-
-def expected_wall_s(p, recs):
-    """Expected wall time [s] of a run of resolved parameters ``p``: the median wall time of the
-    finished runs like it (:func:`_median_like`).  Without one, an upper bound from the runs that
-    differ only in Young's modulus, run length or time-step factor (:func:`_wall_upper_bound`), so
-    that a deadline drain can start the first run at a new stiffness; None while there is neither.
-    A deadline drain (``studies.runner.may_start``) starts a run only if it fits."""
-    w = _median_like(p, recs, lambda r: r["wall_s"])
-    return _wall_upper_bound(p, recs) if w is None else w
-
-
-def _wall_upper_bound(p, recs):
-    """Median over the finished runs that differ from ``p`` only in Young's modulus E, run length T
-    or time-step factor f (:func:`_bound_key`) of wall_s x :func:`cost_scale` [s]; None without
-    such a run."""
-    key = _bound_key(p)
-    xs = [float(r["wall_s"]) * cost_scale(p, r["params"]) for r in recs.values() if _bound_key(r["params"]) == key]
-    return float(np.median(xs)) if xs else None
-
-
-def cost_scale(p, q):
-    """A factor that bounds a run of parameters ``p``'s cost by that of a run ``q`` differing in
-    Young's modulus E, run length T and time-step factor f: max(1, (T / T_q) max(1, r)), with
-    r = sqrt(E / E_q) f_q / f the ratio of steps per simulated second (dt goes as E^-1/2,
-    docs/timestep.md).  An upper bound if a run costs a fixed part (start-up, the analysis) plus a
-    part per step plus a part per simulated second (recording), each the same at any E: the first
-    needs the factor >= 1, the second (T / T_q) r, the third T / T_q."""
-    r = (np.sqrt(float(p["material"]["youngs_modulus"]) / float(q["material"]["youngs_modulus"]))
-         * float(q["run"]["dt_factor"]) / float(p["run"]["dt_factor"]))
-    return float(max(1.0, float(p["run"]["t_end"]) / float(q["run"]["t_end"]) * max(1.0, r)))
-
-
-def _bound_key(params):
-    """:func:`_cost_key` without the Young's modulus and the run length: the runs whose wall time,
-    scaled by :func:`cost_scale`, bounds a run's (the versions stay: a newer model may be slower)."""
-    return _key_without(params, material=("youngs_modulus",), run=("dt_factor", "t_end"))
+def _stop_state(st, runs, recs, n_seeds, max_seeds, budget, spent):
+    """Why a sequential group adds no seed now (its ``state``), or None when it adds a batch."""
+    if not st["finished"]:
+        return "running" if any(r["key"] in recs for r in runs) else "not started"
+    if st["met"]:
+        return "target met"
+    if n_seeds >= max_seeds:
+        return "max_seeds reached"
+    if budget is not None and spent >= budget:
+        return "budget spent"
+    return None
 
 
 def pair_cost(spec, gi, seed, recs):
@@ -366,43 +282,83 @@ def prior_projection(spec, gi, refs):
     known).
     """
     g = spec["groups"][gi]
-    tgt = g["target"]
-    p = S.resolve_run(spec, g, tgt["case"], g["seeds"][0])
-    key = _prior_key(p)
-    cands = []
-    for rsp, rgi, rst, rrecs in refs:
-        rg = rsp["groups"][rgi]
-        if rst.get("case") != tgt["case"] or rst["n"] < 2 or not (rst["sd"] == rst["sd"]):
-            continue
-        rp = S.resolve_run(rsp, rg, tgt["case"], rg["seeds"][0])
-        if _prior_key(rp) != key or (rsp is spec and rgi == gi):
-            continue
-        cands.append((_reference_rank(p, rp, rst["n"]), rsp["study"]["name"], rgi, (rsp, rgi, rst, rrecs, rp)))
-    if not cands:
+    target = g["target"]
+    p = S.resolve_run(spec, g, target["case"], g["seeds"][0])
+    ref = _choose_reference(spec, gi, p, refs)
+    if ref is None:
         return None
-    cands.sort(key=lambda c: (c[1], c[2]))      # a full tie goes to the first study name, not the first found
-    rsp, rgi, rst, rrecs, rp = max(cands, key=lambda c: c[0])[3]
-    rg = rsp["groups"][rgi]
-    seeds = list(rg["seeds"]) + possible_extra_seeds(rsp).get(rgi, [])     # listed and added by the design
-    runs = [r for r in _sequential_runs(rsp, rgi, seeds) if r["key"] in rrecs]
-    cuts = [analysis_cut(rrecs[r["key"]], rsp["analysis"]["t_eq"])[0] for r in runs]
-    cut = float(np.mean(cuts)) if cuts else 0.0
-    t, t_ref = float(p["run"]["t_end"]), float(rp["run"]["t_end"])
+    cut = ref.mean_cut()
+    t, t_ref = float(p["run"]["t_end"]), float(ref.params["run"]["t_end"])
     if t <= cut:
         return None
-    sd = rst["sd"] * np.sqrt((t_ref - cut) / (t - cut))
-    need = sequential.pairs_needed(sd, tgt["halfwidth"], sequential.MIN_PAIRS)
+    sd = ref.status["sd"] * np.sqrt((t_ref - cut) / (t - cut))
+    need = sequential.pairs_needed(sd, target["halfwidth"], sequential.MIN_PAIRS)
     max_n = g.get("max_seeds")
     hw_max = None if max_n is None or max_n < 2 else float(intervals.t_quantile(0.95, max_n - 1) * sd / np.sqrt(max_n))
-    e_ref = float(rp["material"]["youngs_modulus"])
-    ref_seed = max([int(r["seed"]) for r in runs] + list(rg["seeds"])) + 1     # the design's next seed
-    ref_pair = pair_cost(rsp, rgi, ref_seed, rrecs)      # a new pair of the reference, at its time step
-    ref_f = S.resolve_run(rsp, rg, tgt["case"], ref_seed)["run"]["dt_factor"]
-    per = None if ref_pair is None else ref_pair * cost_scale(p, dict(rp, run=dict(rp["run"], dt_factor=ref_f)))
-    return {"ref": rsp["study"]["name"], "ref_pairs": int(rst["n"]), "ref_youngs_modulus": e_ref,
+    per = ref.pair_cost_for(p)
+    return {"ref": ref.spec["study"]["name"], "ref_pairs": int(ref.status["n"]),
+            "ref_youngs_modulus": float(ref.params["material"]["youngs_modulus"]),
             "ref_t_end": t_ref, "sd": float(sd), "n_needed": int(need), "halfwidth_at_max": hw_max,
             "max_seeds": max_n, "cpu_hours_per_pair": per,
             "cpu_hours_to_target": None if per is None else per * need}
+
+
+@dataclasses.dataclass
+class Reference:
+    """The reference group of a prior projection (:func:`prior_projection`): its spec, group index,
+    status (:func:`plan`), records (by key) and the resolved parameters of its first run of the case."""
+
+    spec: dict
+    gi: int
+    status: dict
+    recs: dict
+    params: dict
+
+    @property
+    def group(self):
+        return self.spec["groups"][self.gi]
+
+    @functools.cached_property
+    def finished_runs(self):
+        """Its runs (key, case, seed) with a record, at the seeds listed and added by the design."""
+        seeds = list(self.group["seeds"]) + possible_extra_seeds(self.spec).get(self.gi, [])
+        return [r for r in _sequential_runs(self.spec, self.gi, seeds) if r["key"] in self.recs]
+
+    def mean_cut(self):
+        """The mean analysis cut [s] of its finished runs (0 without any)."""
+        t_eq = self.spec["analysis"]["t_eq"]
+        cuts = [analysis_cut(self.recs[r["key"]], t_eq)[0] for r in self.finished_runs]
+        return float(np.mean(cuts)) if cuts else 0.0
+
+    def pair_cost_for(self, p):
+        """CPU-hours of a pair at the target's parameters ``p``: a new pair of the reference (at the
+        design's next seed and its time step) times :func:`cost_scale`; None where not known."""
+        next_seed = max([int(r["seed"]) for r in self.finished_runs] + list(self.group["seeds"])) + 1
+        ref_pair = pair_cost(self.spec, self.gi, next_seed, self.recs)
+        if ref_pair is None:
+            return None
+        ref_f = S.resolve_run(self.spec, self.group, self.status["case"], next_seed)["run"]["dt_factor"]
+        return ref_pair * cost_scale(p, dict(self.params, run=dict(self.params["run"], dt_factor=ref_f)))
+
+
+def _choose_reference(spec, gi, p, refs):
+    """The best :class:`Reference` among ``refs`` for group gi's target parameters ``p``
+    (:func:`_reference_rank`; a full tie goes to the first study name), or None."""
+    case = spec["groups"][gi]["target"]["case"]
+    key = _prior_key(p)
+    cands = []
+    for rsp, rgi, rst, rrecs in refs:
+        if rst.get("case") != case or rst["n"] < 2 or not (rst["sd"] == rst["sd"]):
+            continue
+        rg = rsp["groups"][rgi]
+        rp = S.resolve_run(rsp, rg, case, rg["seeds"][0])
+        if _prior_key(rp) != key or (rsp is spec and rgi == gi):
+            continue
+        cands.append((_reference_rank(p, rp, rst["n"]), rsp["study"]["name"], rgi, Reference(rsp, rgi, rst, rrecs, rp)))
+    if not cands:
+        return None
+    cands.sort(key=lambda c: (c[1], c[2]))      # a full tie goes to the first study name, not the first found
+    return max(cands, key=lambda c: c[0])[3]
 
 
 def _reference_rank(p, rp, n):

@@ -5,114 +5,46 @@ process.  By default a ``LocalCluster`` with one worker per core runs in the dri
 (threads that wait on YADE processes; a YADE process dies with the driver); ``scheduler`` names
 an existing Dask cluster (``tcp://HOST:PORT``) whose workers share the results directory.
 
-The manifest (``<results>/manifest.csv``) lists every run of the spec with its key, status
-(``done``, ``flagged`` (finished, failed its checks: never used), ``failed`` (crashed: retried on
-the next invocation up to ``study.max_attempts``), ``todo``), attempts, error and record file.
-Only the driver writes it (atomically).  A run is done when its reduced record is in
-``<results>/runs/``: after a ``kill -9`` of the driver the same command finds the finished records
-and runs the rest; a worker that dies mid-run has its task rescheduled by Dask and leaves no
-partial record.
+The manifest (``<results>/manifest.csv``, :mod:`studies.manifest`) lists every run of the spec with
+its key, status (``done``, ``flagged`` (finished, failed its checks: never used), ``failed``
+(crashed: retried on the next invocation up to ``study.max_attempts``), ``todo``), attempts, error
+and record file.  Only the driver writes it (atomically).  A run is done when its reduced record is
+in ``<results>/runs/``: after a ``kill -9`` of the driver the same command finds the finished
+records and runs the rest; a worker that dies mid-run has its task rescheduled by Dask and leaves
+no partial record.
+
+The driver (:class:`Driver`, what :func:`sweep` runs) holds the study's lock (:class:`DriverLock`),
+plans the runs, submits them (:class:`Submissions`), collects each finished one into the manifest,
+and drains when asked (:class:`Drain`).
 """
 from __future__ import annotations
 
-import csv
-import fcntl
-import io
+import dataclasses
 import json
 import os
 import shutil
 import statistics
 import time
+from typing import Callable
 
-from . import reduce as red
 from . import runner
 from . import spec as S
-
-MANIFEST_FIELDS = ("key", "name", "group", "shape", "case", "protocol", "seed", "status", "attempts", "error",
-                   "record", "yade_version", "rot_algorithm", "energy_drift", "steps_per_s", "wall_s", "updated")
-
+from .drain import DRAIN, Drain, DriverLock
+from .eta import fmt_s as _fmt_s, n_workers, progress_line as _progress_line, remaining_s  # noqa: F401
+from .manifest import (MANIFEST_FIELDS, fill_done as _fill_done, mark_running as _mark_running,  # noqa: F401
+                       now_stamp, read_manifest, reconcile, write_manifest)
 
 results_dir = S.results_dir          # kept here for callers of engine
 
 
-def read_manifest(rdir):
-    path = os.path.join(rdir, "manifest.csv")
-    if not os.path.exists(path):
-        return {}
-    with open(path, newline="") as f:
-        return {r["key"]: r for r in csv.DictReader(f)}
-
-
-def write_manifest(rdir, rows):
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=MANIFEST_FIELDS, lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: r.get(k, "") for k in MANIFEST_FIELDS})
-    runner.write_atomic(os.path.join(rdir, "manifest.csv"), buf.getvalue())
-
-
 def settings_of(spec, rdir, yade="auto", keep_raw=False, scratch=None, timeout=None):
+    """The settings dict :func:`studies.runner.execute` takes, for the runs of ``spec``."""
     r = spec["run"]
     cuts, max_lag = S.analysis_windows(spec)
     return {"results_dir": rdir, "yade": yade, "cuts": cuts, "max_lag": max_lag,
             "energy_tol": r["energy_tol"], "momentum_tol": r["momentum_tol"],
             "progress_period": r["progress_period"], "keep_raw": keep_raw, "scratch": scratch,
             "timeout": timeout}
-
-
-def _row(run, old=None):
-    row = {k: run[k] for k in ("key", "name", "group", "shape", "case", "protocol", "seed")}
-    row.update(status="todo", attempts=0, error="", record="")
-    if old:
-        row.update({k: old.get(k, "") for k in MANIFEST_FIELDS if k not in row or k in
-                    ("status", "attempts", "error", "record", "yade_version", "rot_algorithm", "energy_drift",
-                     "steps_per_s", "wall_s", "updated")})
-        row["attempts"] = int(old.get("attempts") or 0)
-    return row
-
-
-def reconcile(spec, runs, rdir):
-    """Manifest rows of the spec's runs: records on disk win (a record is a finished run)."""
-    old = read_manifest(rdir)
-    needs = S.analysis_windows(spec)
-    rows = {}
-    for run in runs:
-        row = _row(run, old.get(run["key"]))
-        path = runner.record_path(rdir, run)
-        if runner.is_complete(path, run["key"], needs):
-            if row["status"] not in ("done", "flagged"):
-                with open(path) as f:
-                    rec = json.load(f)
-                _fill_done(row, rec, rdir)
-        elif runner.is_complete(path, run["key"]):
-            # a finished run whose record lacks a window the analysis now reads: run it again (its
-            # record stays until the new one, which keeps every window of the old, replaces it)
-            row.update(status="todo", record="", error=f"rerun: {red.why_not_served(path, needs)}")
-        elif row["status"] in ("done", "flagged"):
-            row.update(status="todo", record="")      # record deleted: run again
-        if row["status"] == "running" and runner.in_flight(rdir, run["key"]) is None:
-            row["status"] = "todo"                    # its attempt is gone (a killed worker or driver)
-        rows[run["key"]] = row
-    return rows
-
-
-def _fill_done(row, rec, rdir):
-    c = rec["checks"]
-    row.update(status="done" if c["ok"] else "flagged", error="; ".join(c["fail_reasons"]),
-               record=os.path.relpath(runner.record_path(rdir, rec), rdir),
-               yade_version=rec["yade_version"], rot_algorithm=rec["rot_algorithm"],
-               energy_drift=f"{c['energy_drift']:.3g}", steps_per_s=f"{rec['facts']['steps_per_s']:.0f}",
-               wall_s=f"{rec['wall_s']:.1f}", updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
-    if not row.get("attempts") and not os.path.exists(runner.starts_path(rdir, rec["key"])):
-        row["attempts"] = 1       # a record from before attempts were counted (the driver counts the starts)
-
-
-def _fmt_s(s):
-    if s is None or s != s:
-        return "?"
-    s = int(s)
-    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
 
 
 def _client(scheduler, workers):
@@ -167,204 +99,292 @@ def sweep(spec, scheduler=None, workers=None, yade="auto", keep_raw=False, allow
     when it is about to start), the others return untried and stay to do (for the next driver); at
     the deadline it drains as above.  A new driver removes a drain file written before it took its
     lock."""
-    from distributed import wait
+    options = SweepOptions(scheduler=scheduler, workers=workers, yade=yade, keep_raw=keep_raw,
+                           allow_dirty=allow_dirty, max_runs=max_runs, progress_every=progress_every, log=log,
+                           scratch=scratch, timeout=timeout)
+    return Driver(spec, options).run()
 
-    rdir = results_dir(spec)
-    os.makedirs(os.path.join(rdir, "runs"), exist_ok=True)
-    lock = open(os.path.join(rdir, ".driver.lock"), "w")
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        raise SystemExit(f"[study] another driver is running on {rdir}")
-    t_locked = time.time()
-    # progress files left by a driver that was killed: no run of this study is in flight while we
-    # hold the lock, so they would only show as phantom running runs
-    shutil.rmtree(os.path.join(rdir, ".progress"), ignore_errors=True)
-    drain_path = os.path.join(rdir, DRAIN)
-    try:    # a drain asked of an earlier driver; one asked of this driver since it took its lock stays
-        # (0.1 s of margin: a file system stamps times from a coarse clock)
-        if os.path.getmtime(drain_path) < t_locked - 0.1:
-            os.remove(drain_path)
-    except FileNotFoundError:
-        pass
-    draining = False
-    deadline_seen = None
-    commit, dirty = runner.git_state()
-    if dirty and not allow_dirty:
-        raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
-                         "runs must come from a committed revision (commit, use a clean `git worktree`, "
-                         "or pass --allow-dirty for a throw-away study)")
-    max_att = spec["study"]["max_attempts"]
-    schedule = spec["study"]["schedule"]
-    client = cluster = None
-    t_start = time.time()
-    n_ok = n_flag = n_fail = n_sub = n_cancel = 0
-    attempted = set()
-    expected = {}             # run key -> expected wall seconds (the cost model), for the ETAs
-    scratch_root = runner.scratch_root_of({"scratch": scratch})
-    done_walls = []           # wall seconds of the runs this sweep finished
-    first = True
-    try:
+
+@dataclasses.dataclass
+class SweepOptions:
+    """How a sweep runs (the parameters of :func:`sweep`)."""
+
+    scheduler: str | None = None
+    workers: int | None = None
+    yade: str = "auto"
+    keep_raw: bool = False
+    allow_dirty: bool = False
+    max_runs: int | None = None
+    progress_every: float = 30.0
+    log: Callable[[str], object] = print
+    scratch: str | None = None
+    timeout: float | None = None
+
+
+@dataclasses.dataclass
+class Tally:
+    """What a sweep did: runs submitted, finished ok, flagged, failed, and cancelled by a drain."""
+
+    submitted: int = 0
+    ok: int = 0
+    flagged: int = 0
+    failed: int = 0
+    cancelled: int = 0
+
+
+class Driver:
+    """One sweep of a spec (:func:`sweep`): plan, submit, collect into the manifest, until no run
+    is left to do or a drain ends it.  :meth:`run` returns the manifest rows (dict by key)."""
+
+    def __init__(self, spec, options):
+        self.spec = spec
+        self.options = options
+        self.log = options.log
+        self.rdir = results_dir(spec)
+        self.max_attempts = spec["study"]["max_attempts"]
+        self.schedule = spec["study"]["schedule"]
+        self.sequential = any(g.get("target") for g in spec["groups"])
+        self.drain = Drain(self.rdir, self.log)
+        self.tally = Tally()
+        self.scratch_root = runner.scratch_root_of({"scratch": options.scratch})
+        self.workers = options.workers
+        self.runs, self.rows = [], {}       # the runs planned now and their manifest rows (by key)
+        self.futs, self.pending = {}, set()  # this round's futures (to their runs) and those not finished
+        self.attempted = set()              # keys of the runs submitted by this sweep
+        self.expected = {}                  # run key -> expected wall seconds (the cost model), for the ETAs
+        self.done_walls = []                # wall seconds of the runs this sweep finished
+        self.client = self.cluster = self.settings = self.cost = None
+        self.commit, self.dirty, self.t_start = None, None, None
+
+    def run(self):
+        """Sweep under the study's lock; returns the manifest rows (dict by key)."""
+        os.makedirs(os.path.join(self.rdir, "runs"), exist_ok=True)
+        with DriverLock(self.rdir) as lock:
+            # progress files left by a driver that was killed: no run of this study is in flight while
+            # we hold the lock, so they would only show as phantom running runs
+            shutil.rmtree(os.path.join(self.rdir, ".progress"), ignore_errors=True)
+            self.drain.forget_earlier(lock.locked_at)
+            self._check_tree()
+            self.t_start = time.time()
+            try:
+                self._rounds()
+                self._log_end()
+            finally:
+                self._close()
+        return self.rows
+
+    def _check_tree(self):
+        self.commit, self.dirty = runner.git_state()
+        if self.dirty and not self.options.allow_dirty:
+            raise SystemExit("[study] the tree has uncommitted changes under clumpprops/, studies/ or yade_scripts/: "
+                             "runs must come from a committed revision (commit, use a clean `git worktree`, "
+                             "or pass --allow-dirty for a throw-away study)")
+
+    def _rounds(self):
+        """Plan, submit and collect until nothing is left to do (a round ends when its runs have)."""
+        first = True
         while True:
-            runs, _ = _plan(spec, rdir, log)
-            rows = reconcile(spec, runs, rdir)
-            if first:         # attempts a killed driver's workers started and nobody counted
-                for r in runs:
-                    rows[r["key"]]["attempts"] = int(rows[r["key"]]["attempts"] or 0) + runner.take_starts(rdir, r["key"])
-                runner.clean_scratch(scratch_root)
+            self._replan()
+            if first:
+                self._count_lost_starts()
                 first = False
-            # the cap is on failures: starts that were killed (a stopped driver, a lost worker) count
-            # as attempts but never leave a run undone
-            todo = [r for r in runs if r["key"] not in attempted and (rows[r["key"]]["status"] == "todo" or (
-                    rows[r["key"]]["status"] == "failed" and int(rows[r["key"]]["attempts"]) < max_att))]
-            given_up = [r for r in runs if rows[r["key"]]["status"] == "failed"
-                        and int(rows[r["key"]]["attempts"]) >= max_att]
-            todo.sort(key=lambda r: -_priority(r, schedule))     # --max-runs keeps the first in the schedule
-            if max_runs is not None:
-                todo = todo[:max(0, max_runs - n_sub)]
-            write_manifest(rdir, [rows[r["key"]] for r in runs])
-            if n_sub == 0:
-                n_done = sum(rows[r["key"]]["status"] in ("done", "flagged") for r in runs)
-                log(f"[study] {spec['study']['name']} ({spec['path']}): {len(runs)} runs, {n_done} already complete, "
-                    f"{len(todo)} to do, {len(given_up)} given up after {max_att} attempts; commit {commit[:10]}"
-                    f"{' (dirty)' if dirty else ''}; results in {os.path.relpath(rdir, S.ROOT)}")
-                for r in given_up:
-                    log(f"[study]   given up: {r['name']}: {rows[r['key']]['error'][:200]}")
-            if not todo:
-                break
-            if _drain_now(runner.drain_deadline(rdir)):
-                draining = True
-                log(f"[study] draining ({DRAIN} found): {len(todo)} run(s) to do not submitted")
-                break
-            if client is None:
-                workers = workers or os.cpu_count() or 1
-                client, cluster = _client(scheduler, workers)
-                settings = settings_of(spec, rdir, yade, keep_raw, scratch, timeout)
-                cost = _cost_model(spec, rdir)        # once: a re-plan's new runs are submitted at once
-            futs, pending = {}, set()
+            todo, given_up = self._todo()
+            self._write_manifest()
+            if self.tally.submitted == 0:
+                self._log_opening(todo, given_up)
+            if not todo or self.drain.before_submission(len(todo)):
+                return
+            self._start_client()
+            self.futs, self.pending = {}, set()
+            self._submit(todo)
+            self._collect()
+            if self.drain.draining:
+                self._write_manifest()
+                return
 
-            def submit(batch):
-                nonlocal n_sub
-                expected.update({r["key"]: cost(r["params"]) for r in batch})
-                for run in batch:
-                    f = client.submit(runner.execute, run, settings, key=f"run-{run['key']}-{int(t_start)}-{n_sub}",
-                                      pure=False, priority=_priority(run, schedule), retries=0)
-                    futs[f] = run
-                    pending.add(f)
-                    attempted.add(run["key"])
-                    n_sub += 1
-                log(f"[study] {len(batch)} runs submitted to {scheduler or f'a LocalCluster of {workers} worker(s)'}")
+    def _replan(self):
+        self.runs, _ = _plan(self.spec, self.rdir, self.log)
+        self.rows = reconcile(self.spec, self.runs, self.rdir)
 
-            submit(todo)
-            last = time.time()
-            sequential = any(g.get("target") for g in spec["groups"])
-            while pending:
-                deadline = runner.drain_deadline(rdir)
-                if deadline is not None and deadline > time.time() and deadline != deadline_seen:
-                    deadline_seen = deadline
-                    log(f"[study] drain by {time.strftime('%H:%M:%S UTC', time.gmtime(deadline))} ({DRAIN} found): "
-                        "only runs expected to finish by then start; the others stay to do")
-                if not draining and _drain_now(deadline):
-                    draining = True
-                    queued = {f for f in pending
-                              if not f.done() and not os.path.exists(runner.progress_path(rdir, futs[f]["key"]))}
-                    client.cancel(list(queued))
-                    pending -= queued
-                    n_cancel += len(queued)
-                    log(f"[study] draining ({DRAIN} found): {len(pending)} run(s) in flight finish, "
-                        f"{len(queued)} queued run(s) cancelled (they stay to do)")
-                    if not pending:
-                        break
-                try:
-                    done, pending = wait(pending, timeout=min(progress_every, 5.0), return_when="FIRST_COMPLETED")
-                except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
-                    done = set()
-                for f in done:
-                    run = futs[f]
-                    row = rows[run["key"]]
-                    try:
-                        summ, err = f.result(), None
-                    except Exception as e:  # noqa: BLE001 - recorded below
-                        summ, err = None, e
-                    if isinstance(summ, dict) and summ.get("drained"):
-                        n_cancel += 1        # began after the drain and did nothing: it stays to do
-                        continue
-                    row["attempts"] = int(row["attempts"] or 0) + max(1, runner.take_starts(rdir, run["key"]))
-                    try:
-                        if err is not None:
-                            raise err
-                        with open(runner.record_path(rdir, run)) as fh:
-                            _fill_done(row, json.load(fh), rdir)
-                        if not summ.get("reused"):   # the runs still queued: this sweep's measured pace
-                            done_walls.append(float(summ["wall_s"]))
-                            expected.update({futs[q]["key"]: statistics.median(done_walls) for q in pending})
-                        flag = "ok" if summ["ok"] else "FLAGGED " + "; ".join(summ["fail_reasons"])
-                        n_ok += summ["ok"]
-                        n_flag += not summ["ok"]
-                        log(f"[study] done {run['name']}: {flag}, energy drift {summ['energy_drift']:.2g}, "
-                            f"{summ['steps_per_s']:.0f} steps/s, {summ['wall_s']:.0f} s, YADE {summ['yade_version']} "
-                            f"({summ['rot_algorithm']})")
-                    except Exception as e:  # noqa: BLE001 - any failure of a run is recorded, never lost
-                        n_fail += 1
-                        msg = f"{type(e).__name__}: {e}"
-                        row.update(status="failed", error=msg.replace("\n", " | ")[:2000],
-                                   updated=time.strftime("%Y-%m-%dT%H:%M:%S"))
-                        log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{max_att}): {msg[:600]}")
-                    write_manifest(rdir, [rows[r["key"]] for r in runs])
-                if done and sequential and not draining:
-                    # A sequential group whose batch just finished may need more seeds now: plan
-                    # again and queue its new runs at their group's priority, ahead of the later
-                    # groups' queued runs, instead of after every run submitted so far.
-                    old_rows = rows
-                    runs, _ = _plan(spec, rdir, log)
-                    rows = reconcile(spec, runs, rdir)
-                    # a plan can shrink (the budget ran out since a batch was added): runs already
-                    # submitted stay in the manifest and are still collected when they finish
-                    for r in futs.values():
-                        if r["key"] not in rows:
-                            runs.append(r)
-                            rows[r["key"]] = old_rows[r["key"]]
-                    new = sorted((r for r in runs if rows[r["key"]]["status"] == "todo" and r["key"] not in attempted),
-                                 key=lambda r: -_priority(r, schedule))
-                    if max_runs is not None:
-                        new = new[:max(0, max_runs - n_sub)]
-                    write_manifest(rdir, [rows[r["key"]] for r in runs])
-                    if new:
-                        submit(new)
-                if _mark_running(rdir, rows, [futs[f] for f in pending]):
-                    write_manifest(rdir, [rows[r["key"]] for r in runs])
-                now = time.time()
-                if pending and now - last >= progress_every:
-                    last = now
-                    log(_progress_line(rdir, futs, pending, expected, n_workers(client, workers), now - t_start,
-                                       len(futs) - len(pending) - n_cancel, len(futs) - n_cancel))
-            if draining:
-                write_manifest(rdir, [rows[r["key"]] for r in runs])
-                break
-        if draining or n_cancel:
-            log(f"[study] drained: the runs in flight finished; {spec['study']['name']} resumes with "
-                "`scripts/sweep.sh start` (or `python -m studies sweep`)")
-        if n_sub:
-            log(f"[study] finished {n_sub - n_cancel} runs in {_fmt_s(time.time() - t_start)}: {n_ok} ok, "
-                f"{n_flag} flagged, {n_fail} failed" + (f"; {n_cancel} cancelled by the drain" if n_cancel else ""))
-    finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
-        runner.clean_scratch(scratch_root)     # a killed attempt's folders
-        fcntl.flock(lock, fcntl.LOCK_UN)
-        lock.close()
-    return rows
+    def _count_lost_starts(self):
+        """Count the attempts a killed driver's workers started and nobody counted; clear their scratch."""
+        for r in self.runs:
+            row = self.rows[r["key"]]
+            row["attempts"] = int(row["attempts"] or 0) + runner.take_starts(self.rdir, r["key"])
+        runner.clean_scratch(self.scratch_root)
 
+    def _todo(self):
+        """(runs to submit, highest priority first; runs given up after ``max_attempts`` failures)."""
+        # the cap is on failures: starts that were killed (a stopped driver, a lost worker) count
+        # as attempts but never leave a run undone
+        def wanted(row):
+            return row["status"] == "todo" or (row["status"] == "failed" and int(row["attempts"]) < self.max_attempts)
 
-DRAIN = runner.DRAIN    # a file in the results directory: finish the runs in flight, start no more, end
+        todo = [r for r in self.runs if r["key"] not in self.attempted and wanted(self.rows[r["key"]])]
+        given_up = [r for r in self.runs if self.rows[r["key"]]["status"] == "failed"
+                    and int(self.rows[r["key"]]["attempts"]) >= self.max_attempts]
+        return self._queue(todo), given_up
 
+    def _queue(self, runs):
+        """``runs`` in the schedule's order, cut to what ``max_runs`` still allows this sweep to
+        submit (``--max-runs`` keeps the first in the schedule)."""
+        runs = sorted(runs, key=lambda r: -_priority(r, self.schedule))
+        if self.options.max_runs is None:
+            return runs
+        return runs[:max(0, self.options.max_runs - self.tally.submitted)]
 
-def _drain_now(deadline):
-    """True when the sweep must drain now, given :func:`studies.runner.drain_deadline`: a drain file
-    without a deadline (0.0), or one past its deadline."""
-    return deadline is not None and deadline <= time.time()
+    def _write_manifest(self):
+        write_manifest(self.rdir, [self.rows[r["key"]] for r in self.runs])
+
+    def _log_opening(self, todo, given_up):
+        n_done = sum(self.rows[r["key"]]["status"] in ("done", "flagged") for r in self.runs)
+        self.log(f"[study] {self.spec['study']['name']} ({self.spec['path']}): {len(self.runs)} runs, {n_done} "
+                 f"already complete, {len(todo)} to do, {len(given_up)} given up after {self.max_attempts} attempts; "
+                 f"commit {self.commit[:10]}{' (dirty)' if self.dirty else ''}; results in "
+                 f"{os.path.relpath(self.rdir, S.ROOT)}")
+        for r in given_up:
+            self.log(f"[study]   given up: {r['name']}: {self.rows[r['key']]['error'][:200]}")
+
+    def _start_client(self):
+        """The Dask client, the runs' settings and the cost model, once (a re-plan's runs are submitted at once)."""
+        if self.client is not None:
+            return
+        o = self.options
+        self.workers = o.workers or os.cpu_count() or 1
+        self.client, self.cluster = _client(o.scheduler, self.workers)
+        self.settings = settings_of(self.spec, self.rdir, o.yade, o.keep_raw, o.scratch, o.timeout)
+        self.cost = _cost_model(self.spec, self.rdir)
+
+    def _submit(self, batch):
+        """Submit the runs ``batch`` as Dask tasks at their schedule's priority."""
+        self.expected.update({r["key"]: self.cost(r["params"]) for r in batch})
+        for run in batch:
+            f = self.client.submit(runner.execute, run, self.settings,
+                                   key=f"run-{run['key']}-{int(self.t_start)}-{self.tally.submitted}",
+                                   pure=False, priority=_priority(run, self.schedule), retries=0)
+            self.futs[f] = run
+            self.pending.add(f)
+            self.attempted.add(run["key"])
+            self.tally.submitted += 1
+        where = self.options.scheduler or f"a LocalCluster of {self.workers} worker(s)"
+        self.log(f"[study] {len(batch)} runs submitted to {where}")
+
+    def _collect(self):
+        """Collect this round's runs as they finish: the manifest, re-plans, drains and progress lines."""
+        from distributed import wait
+
+        every = self.options.progress_every
+        last = time.time()
+        while self.pending:
+            if self.drain.begins():
+                self._cancel_queued()
+                if not self.pending:
+                    return
+            try:
+                done, self.pending = wait(self.pending, timeout=min(every, 5.0), return_when="FIRST_COMPLETED")
+            except TimeoutError:       # nothing finished within the timeout (asyncio's, an OSError subclass)
+                done = set()
+            for f in done:
+                self._collect_one(f)
+            if done and self.sequential and not self.drain.draining:
+                self._replan_in_flight()
+            if _mark_running(self.rdir, self.rows, [self.futs[f] for f in self.pending]):
+                self._write_manifest()
+            now = time.time()
+            if self.pending and now - last >= every:
+                last = now
+                self.log(self._progress_line(now))
+
+    def _cancel_queued(self):
+        """Cancel the submitted runs that have not started (no progress file): they stay to do."""
+        queued = {f for f in self.pending
+                  if not f.done() and not os.path.exists(runner.progress_path(self.rdir, self.futs[f]["key"]))}
+        self.client.cancel(list(queued))
+        self.pending -= queued
+        self.tally.cancelled += len(queued)
+        self.log(f"[study] draining ({DRAIN} found): {len(self.pending)} run(s) in flight finish, "
+                 f"{len(queued)} queued run(s) cancelled (they stay to do)")
+
+    def _collect_one(self, future):
+        """Record one finished task in the manifest: its run done, flagged or failed."""
+        run = self.futs[future]
+        row = self.rows[run["key"]]
+        try:
+            summary, err = future.result(), None
+        except Exception as e:  # noqa: BLE001 - recorded below
+            summary, err = None, e
+        if isinstance(summary, dict) and summary.get("drained"):
+            self.tally.cancelled += 1        # began after the drain and did nothing: it stays to do
+            return
+        row["attempts"] = int(row["attempts"] or 0) + max(1, runner.take_starts(self.rdir, run["key"]))
+        try:
+            if err is not None:
+                raise err
+            self._record_finished(run, row, summary)
+        except Exception as e:  # noqa: BLE001 - any failure of a run is recorded, never lost
+            self._record_failure(run, row, e)
+        self._write_manifest()
+
+    def _record_finished(self, run, row, summary):
+        with open(runner.record_path(self.rdir, run)) as fh:
+            _fill_done(row, json.load(fh), self.rdir)
+        if not summary.get("reused"):   # the runs still queued: this sweep's measured pace
+            self.done_walls.append(float(summary["wall_s"]))
+            self.expected.update({self.futs[q]["key"]: statistics.median(self.done_walls) for q in self.pending})
+        flag = "ok" if summary["ok"] else "FLAGGED " + "; ".join(summary["fail_reasons"])
+        self.tally.ok += summary["ok"]
+        self.tally.flagged += not summary["ok"]
+        self.log(f"[study] done {run['name']}: {flag}, energy drift {summary['energy_drift']:.2g}, "
+                 f"{summary['steps_per_s']:.0f} steps/s, {summary['wall_s']:.0f} s, YADE {summary['yade_version']} "
+                 f"({summary['rot_algorithm']})")
+
+    def _record_failure(self, run, row, error):
+        self.tally.failed += 1
+        msg = f"{type(error).__name__}: {error}"
+        row.update(status="failed", error=msg.replace("\n", " | ")[:2000], updated=now_stamp())
+        self.log(f"[study] FAILED {run['name']} (attempt {row['attempts']}/{self.max_attempts}): {msg[:600]}")
+
+    def _replan_in_flight(self):
+        """Plan again after a batch finished and submit a sequential group's new runs at once.
+
+        They are queued at their group's priority, ahead of the later groups' queued runs, instead
+        of after every run submitted so far.  A plan can shrink (the budget ran out since a batch
+        was added): runs already submitted stay in the manifest and are still collected.
+        """
+        old_rows = self.rows
+        self._replan()
+        for r in self.futs.values():
+            if r["key"] not in self.rows:
+                self.runs.append(r)
+                self.rows[r["key"]] = old_rows[r["key"]]
+        new = self._queue([r for r in self.runs
+                           if self.rows[r["key"]]["status"] == "todo" and r["key"] not in self.attempted])
+        self._write_manifest()
+        if new:
+            self._submit(new)
+
+    def _progress_line(self, now):
+        n_cancel = self.tally.cancelled
+        return _progress_line(self.rdir, self.futs, self.pending, self.expected, n_workers(self.client, self.workers),
+                              now - self.t_start, len(self.futs) - len(self.pending) - n_cancel,
+                              len(self.futs) - n_cancel)
+
+    def _log_end(self):
+        t = self.tally
+        if self.drain.draining or t.cancelled:
+            self.log(f"[study] drained: the runs in flight finished; {self.spec['study']['name']} resumes with "
+                     "`scripts/sweep.sh start` (or `python -m studies sweep`)")
+        if t.submitted:
+            self.log(f"[study] finished {t.submitted - t.cancelled} runs in {_fmt_s(time.time() - self.t_start)}: "
+                     f"{t.ok} ok, {t.flagged} flagged, {t.failed} failed"
+                     + (f"; {t.cancelled} cancelled by the drain" if t.cancelled else ""))
+
+    def _close(self):
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        runner.clean_scratch(self.scratch_root)     # a killed attempt's folders
 
 
 def _priority(run, schedule="in_order"):
@@ -388,50 +408,3 @@ def _cost_model(spec, rdir):
     own = design.load_records(spec, rdir)
     per = cost.seconds_per_body_step(cost.committed_records())
     return lambda params: cost.estimate(params, own, per)[0]
-
-
-def remaining_s(expected_s, progress, now=None):
-    """Expected wall seconds left of one run: the cost model's ``expected_s`` for the part not done
-    until a tenth of the run is done, then the run's own pace (start-up no longer dominates it)."""
-    if not progress:
-        return expected_s
-    frac = min(max(float(progress["t"]) / float(progress["t_end"]), 0.0), 1.0)
-    ran = (now or time.time()) - float(progress.get("started", progress["wall"]))
-    if frac >= 0.1 and ran > 0:
-        return ran * (1 - frac) / frac
-    return expected_s * (1 - frac) if expected_s == expected_s else float("nan")
-
-
-def n_workers(client, workers):
-    try:
-        return max(1, len(client.scheduler_info()["workers"]))
-    except Exception:  # noqa: BLE001 - a scheduler that does not answer: the asked number
-        return max(1, int(workers or 1))
-
-
-def _mark_running(rdir, rows, runs):
-    """Rows of runs with a live attempt become ``running``, rows whose attempt died ``todo``; True if any changed."""
-    changed = False
-    for run in runs:
-        row = rows[run["key"]]
-        live = runner.in_flight(rdir, run["key"]) is not None
-        if live and row["status"] in ("todo", "failed"):
-            row["status"], changed = "running", True
-        elif not live and row["status"] == "running":
-            row["status"], changed = "todo", True
-    return changed
-
-
-def _progress_line(rdir, futs, pending, expected, n_workers, elapsed, n_done, n_all):
-    parts, left, now = [], 0.0, time.time()
-    for f in pending:
-        run = futs[f]
-        p = runner.in_flight(rdir, run["key"])
-        rem = remaining_s(expected.get(run["key"], float("nan")), p, now)
-        left += rem
-        if p:
-            parts.append(f"{run['name'].rsplit('-', 1)[0]} t={p['t']:.0f}/{p['t_end']:.0f} s "
-                         f"{p['steps_per_s']:.0f} steps/s eta {_fmt_s(rem)}")
-    eta = left / n_workers if left == left else None
-    return (f"[study] {n_done}/{n_all} runs done, {len(parts)} running, {_fmt_s(elapsed)} elapsed, "
-            f"study eta {_fmt_s(eta)}" + ("" if not parts else " | " + " | ".join(parts)))

@@ -78,6 +78,7 @@ def window(frames, t_cut, max_lag_s, n_groups=N_GROUPS, n_msd=160):
 
 
 def energy_series(frames, stride_s=ENERGY_STRIDE_S):
+    """The energy partition (t, translational, rotational, elastic) about every ``stride_s`` seconds."""
     t = frames["t"]
     dt_f = t[2] - t[1] if len(t) > 2 else 1.0
     stride = max(1, int(round(stride_s / dt_f)))

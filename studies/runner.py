@@ -10,6 +10,7 @@ directory under ``scratch`` and are removed when the attempt ends.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import json
 import os
 import re
@@ -137,7 +138,7 @@ def may_start(run, results_dir, now=None):
     """False when a drain forbids ``run`` to start: a drain now, or a deadline that the run's expected
     wall time times :data:`DRAIN_MARGIN` would overshoot.  The expected wall time [s] is
     ``run["expected_wall_s"]`` if given, else from the records under ``results_dir`` finished by
-    now (:func:`studies.design.expected_wall_s_in`): the median of the runs like it, or, before the
+    now (:func:`studies.cost.expected_wall_s_in`): the median of the runs like it, or, before the
     first of them, an upper bound from the runs at another stiffness or length.  A run of unknown
     length never fits a deadline."""
     deadline = drain_deadline(results_dir)
@@ -148,7 +149,7 @@ def may_start(run, results_dir, now=None):
         return False
     expected = run.get("expected_wall_s")
     if expected is None and "params" in run:      # from the records finished by now, not at queueing
-        from .design import expected_wall_s_in
+        from .cost import expected_wall_s_in
         expected = expected_wall_s_in(results_dir, run["params"])
     return expected is not None and now + DRAIN_MARGIN * float(expected) <= deadline
 
@@ -259,27 +260,71 @@ def execute(run, settings):
     out = record_path(settings["results_dir"], run)
     if is_complete(out, run["key"], (settings["cuts"], settings["max_lag"])):
         with open(out) as f:
-            rec = json.load(f)
-        return _summary(rec, reused=True)
+            return _summary(json.load(f), reused=True)
     if is_complete(out, run["key"]):            # a record for another analysis: the new one keeps its windows too
-        old_cuts, old_lag = red.stored_windows(out)
-        settings = dict(settings, cuts=sorted(set(settings["cuts"]) | set(old_cuts)),
-                        max_lag=max(settings["max_lag"], old_lag))
-    params = run["params"]
+        settings = _widened(settings, out)
+    attempt = _start(run, settings)
+    if attempt is None:
+        return {"drained": True}
+    try:
+        rin = run_input(run["params"], progress_period=settings.get("progress_period", 20.0))
+        table = _write_run_files(attempt, rin)
+        wall, cpu = _run_yade(attempt, table, settings.get("timeout"))
+        rec = _record(run, attempt, rin, settings, wall, cpu)
+        if settings.get("keep_raw"):
+            _keep_raw(attempt, rin, run, settings["results_dir"])
+        write_atomic(out, json.dumps(rec, separators=(",", ":")))
+        return _summary(rec, reused=False)
+    finally:
+        shutil.rmtree(attempt.work, ignore_errors=True)
+        _remove(attempt.progress)
+
+
+@dataclasses.dataclass
+class Attempt:
+    """One attempt of a run on a worker: its YADE, scratch folder and progress file."""
+
+    run: dict
+    cmd: list            # the YADE command
+    chroot: bool         # True for the Debian 13 root's YADE
+    work: str            # the attempt's scratch folder
+    progress: str        # its progress file (:func:`progress_path`)
+    started: float       # UNIX time [s] the attempt started
+    period: float        # seconds between progress lines
+
+    @property
+    def prefix(self):
+        """Where YADE writes the run's outputs (``.json`` facts, ``.npz`` frames)."""
+        return os.path.join(self.work, "out")
+
+    def note_progress(self, **kw):
+        _progress(self.progress, name=self.run["name"], started=self.started, period=self.period, **kw)
+
+
+def _widened(settings, record):
+    """``settings`` whose analysis windows also keep those of the existing record at ``record``."""
+    old_cuts, old_lag = red.stored_windows(record)
+    return dict(settings, cuts=sorted(set(settings["cuts"]) | set(old_cuts)), max_lag=max(settings["max_lag"], old_lag))
+
+
+def _start(run, settings):
+    """Start an attempt of ``run`` (its progress file, start count, YADE and scratch folder), or
+    None when a drain forbids it."""
     # the progress file marks the run as started (a draining driver cancels only runs that have
-    # none, studies.engine.sweep); written first, then the drain file checked, so that a run the
+    # none, studies.engine.Driver); written first, then the drain file checked, so that a run the
     # driver cancels as queued never starts YADE, even if Dask had already begun it
-    prog = progress_path(settings["results_dir"], run["key"])
+    rdir = settings["results_dir"]
+    prog = progress_path(rdir, run["key"])
     started = time.time()
     period = settings.get("progress_period", 20.0)
-    _progress(prog, name=run["name"], t=0.0, t_end=params["run"]["t_end"], steps_per_s=0.0, eta_s=None,
+    _progress(prog, name=run["name"], t=0.0, t_end=run["params"]["run"]["t_end"], steps_per_s=0.0, eta_s=None,
               state="starting", started=started, period=period)
-    if not may_start(run, settings["results_dir"]):
+    if not may_start(run, rdir):
         _remove(prog)
-        return {"drained": True}
-    _count_start(settings["results_dir"], run["key"])
+        return None
+    _count_start(rdir, run["key"])
     try:
-        cmd, chroot, version = yade_command(params["yade"], settings.get("yade", "auto"))
+        cmd, chroot, _ = yade_command(run["params"]["yade"], settings.get("yade", "auto"))
         scratch_root = scratch_root_of(settings)
         clean_scratch(scratch_root)                 # what killed attempts left behind
         work = os.path.join(scratch_root, f"{run['name']}-{uuid.uuid4().hex[:8]}")
@@ -289,73 +334,87 @@ def execute(run, settings):
     except BaseException:
         _remove(prog)
         raise
-    try:
-        rin = run_input(params, progress_period=settings.get("progress_period", 20.0))
-        rin_path = os.path.join(work, "run.json")
-        with open(rin_path, "w") as f:
-            json.dump(rin, f)
-        prefix = os.path.join(work, "out")
-        table = os.path.join(work, "run.table")
-        with open(table, "w") as f:
-            f.write(f"run out\n{rin_path!r} {prefix!r}\n")
-        env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{table}:2", CLUMPPROPS_ROOT=ROOT)
-        script = SCRIPT
-        if chroot:      # the repository is /repo inside the root; /tmp is shared
-            import glob
-            if not glob.glob(os.path.join(ROOT, "clumpprops", "core", "_core.cpython-313*.so")):
-                raise RunError("the Debian 13 root has no build of clumpprops' compiled core (Python 3.13): "
-                               "run `make setup-debian13` once")
-            script = "/repo/yade_scripts/granular_gas.py"
-            cmd = cmd[:2] + ["env", f"YADE_BATCH={table}:2"] + cmd[2:]
-        log_path = os.path.join(work, "yade.log")
-        t0 = time.time()
-        t_end = params["run"]["t_end"]
-        with open(log_path, "w") as log:
-            p = subprocess.Popen(cmd + ["-n", "-x", script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                 stdin=subprocess.DEVNULL, env=env, cwd=work, text=True,
-                                 preexec_fn=_die_with_parent)
-            for line in p.stdout:
-                log.write(line)
-                m = re.match(r"PROGRESS t=([\d.]+) t_end=([\d.]+) steps_per_s=(\d+) eta_s=(\d+)", line)
-                if m:
-                    t, te, sps, eta = (float(x) for x in m.groups())
-                    _progress(prog, name=run["name"], t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running",
-                              started=started, period=period)
-                if settings.get("timeout") and time.time() - t0 > settings["timeout"]:
-                    os.killpg(p.pid, signal.SIGKILL)
-            p.stdout.close()
-            _, status, usage = os.wait4(p.pid, 0)       # the YADE process's own CPU time
-            rc = p.returncode = os.waitstatus_to_exitcode(status)
-        wall = time.time() - t0
-        cpu = usage.ru_utime + usage.ru_stime
-        if rc != 0 or not os.path.exists(prefix + ".json"):
-            with open(log_path, errors="replace") as f:
-                tail = f.read()[-1500:]
-            raise RunError(f"YADE exited with code {rc} after {wall:.0f} s; log tail:\n{tail}")
-        with open(prefix + ".json") as f:
-            facts = json.load(f)
-        with np.load(prefix + ".npz") as z:
-            frames = {k: z[k] for k in z.files}
-        rec = red.reduce_run(frames, rin, settings["cuts"], settings["max_lag"], settings["energy_tol"],
-                             settings["momentum_tol"])
-        commit, dirty = git_state()
-        rec.update(key=run["key"], name=run["name"], shape=run["shape"], case=run["case"],
-                   protocol=run["protocol"], seed=run["seed"], params=params, facts=facts,
-                   yade_version=facts["yade_version"], rot_algorithm=facts["rot_algorithm"],
-                   host=socket.gethostname(), wall_s=wall, cpu_s=cpu, git_commit=commit, git_dirty=dirty,
-                   box_length=rin["box_length"], rot_dof=rin["rot_dof"], case_body=rin["case"],
-                   exact_mass=rin["exact_mass"], python=sys.version.split()[0])
-        if settings.get("keep_raw"):
-            raw = os.path.join(settings["results_dir"], "raw")
-            os.makedirs(raw, exist_ok=True)
-            os.replace(prefix + ".npz", os.path.join(raw, run["name"] + ".npz"))
-            with open(os.path.join(raw, run["name"] + ".run.json"), "w") as f:
-                json.dump(rin, f)
-        write_atomic(out, json.dumps(rec, separators=(",", ":")))
-        return _summary(rec, reused=False)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
-        _remove(prog)
+    return Attempt(run, cmd, chroot, work, prog, started, period)
+
+
+def _write_run_files(attempt, rin):
+    """Write the run file and its one-line yade-batch table in the attempt's folder; returns the table's path."""
+    rin_path = os.path.join(attempt.work, "run.json")
+    with open(rin_path, "w") as f:
+        json.dump(rin, f)
+    table = os.path.join(attempt.work, "run.table")
+    with open(table, "w") as f:
+        f.write(f"run out\n{rin_path!r} {attempt.prefix!r}\n")
+    return table
+
+
+def _yade_invocation(attempt, table):
+    """(command, environment) that runs ``yade_scripts/granular_gas.py`` on the batch table ``table``."""
+    env = dict(os.environ, OMP_NUM_THREADS="1", YADE_BATCH=f"{table}:2", CLUMPPROPS_ROOT=ROOT)
+    cmd, script = attempt.cmd, SCRIPT
+    if attempt.chroot:      # the repository is /repo inside the root; /tmp is shared
+        import glob
+        if not glob.glob(os.path.join(ROOT, "clumpprops", "core", "_core.cpython-313*.so")):
+            raise RunError("the Debian 13 root has no build of clumpprops' compiled core (Python 3.13): "
+                           "run `make setup-debian13` once")
+        script = "/repo/yade_scripts/granular_gas.py"
+        cmd = cmd[:2] + ["env", f"YADE_BATCH={table}:2"] + cmd[2:]
+    return cmd + ["-n", "-x", script], env
+
+
+def _run_yade(attempt, table, timeout):
+    """Run YADE on the attempt's run file, relaying its progress lines; returns (wall s, CPU s).
+    Raises RunError when YADE fails or writes no outputs."""
+    cmd, env = _yade_invocation(attempt, table)
+    log_path = os.path.join(attempt.work, "yade.log")
+    t0 = time.time()
+    with open(log_path, "w") as log:
+        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                             env=env, cwd=attempt.work, text=True, preexec_fn=_die_with_parent)
+        for line in p.stdout:
+            log.write(line)
+            m = re.match(r"PROGRESS t=([\d.]+) t_end=([\d.]+) steps_per_s=(\d+) eta_s=(\d+)", line)
+            if m:
+                t, te, sps, eta = (float(x) for x in m.groups())
+                attempt.note_progress(t=t, t_end=te, steps_per_s=sps, eta_s=eta, state="running")
+            if timeout and time.time() - t0 > timeout:
+                os.killpg(p.pid, signal.SIGKILL)
+        p.stdout.close()
+        _, status, usage = os.wait4(p.pid, 0)       # the YADE process's own CPU time
+        rc = p.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.time() - t0
+    if rc != 0 or not os.path.exists(attempt.prefix + ".json"):
+        with open(log_path, errors="replace") as f:
+            tail = f.read()[-1500:]
+        raise RunError(f"YADE exited with code {rc} after {wall:.0f} s; log tail:\n{tail}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def _record(run, attempt, rin, settings, wall, cpu):
+    """The reduced record of a run from YADE's outputs in the attempt's folder."""
+    with open(attempt.prefix + ".json") as f:
+        facts = json.load(f)
+    with np.load(attempt.prefix + ".npz") as z:
+        frames = {k: z[k] for k in z.files}
+    rec = red.reduce_run(frames, rin, settings["cuts"], settings["max_lag"], settings["energy_tol"],
+                         settings["momentum_tol"])
+    commit, dirty = git_state()
+    rec.update(key=run["key"], name=run["name"], shape=run["shape"], case=run["case"],
+               protocol=run["protocol"], seed=run["seed"], params=run["params"], facts=facts,
+               yade_version=facts["yade_version"], rot_algorithm=facts["rot_algorithm"],
+               host=socket.gethostname(), wall_s=wall, cpu_s=cpu, git_commit=commit, git_dirty=dirty,
+               box_length=rin["box_length"], rot_dof=rin["rot_dof"], case_body=rin["case"],
+               exact_mass=rin["exact_mass"], python=sys.version.split()[0])
+    return rec
+
+
+def _keep_raw(attempt, rin, run, results_dir):
+    """Move the raw frames and the run file to ``<results>/raw`` (``--keep-raw``)."""
+    raw = os.path.join(results_dir, "raw")
+    os.makedirs(raw, exist_ok=True)
+    os.replace(attempt.prefix + ".npz", os.path.join(raw, run["name"] + ".npz"))
+    with open(os.path.join(raw, run["name"] + ".run.json"), "w") as f:
+        json.dump(rin, f)
 
 
 def _remove(path):

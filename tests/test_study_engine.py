@@ -550,3 +550,55 @@ def test_the_first_progress_line_of_a_study_states_the_model_eta(tmp_path):
     expected = {r["key"]: 100.0 for r in runs}
     line = engine._progress_line(str(tmp_path), futs, set(futs), expected, 2, 1.0, 0, len(runs))
     assert f"study eta {engine._fmt_s(100.0 * len(runs) / 2)}" in line and "0 running" in line
+
+
+def test_a_second_driver_on_a_results_directory_is_refused_until_the_first_releases_its_lock(tmp_path):
+    with engine.DriverLock(str(tmp_path)) as held:
+        assert held.locked_at <= time.time()
+        with pytest.raises(SystemExit, match="another driver is running on"):
+            with engine.DriverLock(str(tmp_path)):
+                pass
+    with engine.DriverLock(str(tmp_path)) as again:                  # released on leaving the block
+        assert again.locked_at >= held.locked_at
+
+
+def test_the_drain_forgets_an_earlier_drivers_drain_and_says_a_deadline_once(tmp_path):
+    lines = []
+    drain = engine.Drain(str(tmp_path), lines.append)
+    path = tmp_path / engine.DRAIN
+    path.write_text("")
+    os.utime(path, (time.time() - 60, time.time() - 60))              # asked of an earlier driver
+    drain.forget_earlier(time.time())
+    assert not path.exists()
+    path.write_text("")                                               # asked of this driver: stays
+    drain.forget_earlier(time.time() - 60)
+    assert path.exists()
+    path.write_text(f"{time.time() + 3600:.0f}")                      # a deadline an hour away
+    assert not drain.begins() and not drain.begins() and not drain.draining
+    assert len(lines) == 1 and lines[0].startswith("[study] drain by ")
+    path.write_text(f"{time.time() - 1:.0f}")                         # the deadline has passed
+    assert drain.begins() and drain.draining and not drain.begins()  # the drain begins once
+
+
+def test_a_manifest_row_keeps_the_old_rows_state_and_takes_the_runs_identity():
+    from studies import manifest
+
+    run = {"key": "k1", "name": "dimer-exact-paired-s1-k1", "group": 0, "shape": "dimer", "case": "exact",
+           "protocol": "paired", "seed": 1, "params": {}}
+    assert manifest.new_row(run) == dict({k: run[k] for k in manifest.RUN_FIELDS}, status="todo", attempts=0,
+                                         error="", record="")
+    old = {"key": "k1", "name": "renamed", "status": "failed", "attempts": "2", "error": "boom", "wall_s": "3.0"}
+    row = manifest.new_row(run, old)
+    assert row["name"] == run["name"] and row["status"] == "failed" and row["attempts"] == 2
+    assert row["error"] == "boom" and row["wall_s"] == "3.0" and row["yade_version"] == ""
+
+
+def test_max_runs_runs_the_first_runs_of_the_schedule_and_leaves_the_rest_to_do(tmp_path):
+    sp = tiny(tmp_path, t_end=1.0, cases=("exact", "uncorrected"), seeds=(1, 2))
+    lines = []
+    rows = engine.sweep(sp, workers=1, allow_dirty=True, max_runs=1, log=lines.append)
+    done = [r["name"] for r in rows.values() if r["status"] == "done"]
+    assert done == [next(r["name"] for r in S.runs(sp) if r["seed"] == 1 and r["case"] == "exact")], rows
+    assert sum(r["status"] == "todo" for r in rows.values()) == 3
+    assert "4 runs, 0 already complete, 1 to do" in lines[0]
+    assert lines[-1].startswith("[study] finished 1 runs in ") and lines[-1].endswith(": 1 ok, 0 flagged, 0 failed")
