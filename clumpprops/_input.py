@@ -187,8 +187,13 @@ def _flatten_ragged(centers, radii):
     if len(radii) != M:
         raise ValueError(f"got {len(centers)} clumps of centers but {len(radii)} of radii")
     if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
-        c, r = _checked_pieces(centers, radii)
-        return np.ascontiguousarray(c[0]), np.ascontiguousarray(r[0]), None, len(r[0]), 1, True
+        try:
+            c, r = _as_float_array(centers[0], ""), _as_float_array(radii[0], "")
+        except ValueError:
+            c = r = None
+        if c is None or c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
+            _checked_pieces(centers, radii)  # raises naming the piece
+        return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
     pieces = (centers, radii) if _real_pieces(centers) and _real_pieces(radii) else _checked_pieces(centers, radii)
     try:
         nc = np.fromiter(map(len, pieces[0]), np.int64, M)
