@@ -1,14 +1,16 @@
 """Validation and normalisation of clump input (no physics here).
 
-Every public entry point funnels ``centers``, ``radii`` and ``density`` through
-:func:`normalize`, which turns the three accepted layouts into one flat
-representation that all methods share:
+One parser, :func:`flatten`, reads ``centers`` and ``radii`` in any of the three accepted layouts
 
 * one clump: ``centers`` (N, 3), ``radii`` (N,)
 * a regular batch: ``centers`` (M, N, 3), ``radii`` (M, N)
 * a ragged batch: a sequence of M arrays (N_m, 3) and a sequence of M arrays (N_m,)
 
-The flat form is ``Spheres``: all spheres stacked (S, 3) and (S,), the clump
+and stacks all spheres into flat arrays, or raises the ``ValueError`` that names the problem;
+:func:`check_values` checks the numbers (the compiled methods leave that to the core and call it
+only to word an error); :func:`check_density` checks ``density``.
+
+The numpy methods take :func:`normalize`'s ``Spheres``: all spheres stacked (S, 3) and (S,), the clump
 index of each sphere (S,), the number of clumps M, and a per-clump origin (M, 3)
 near the clump's centre (the volume-weighted mean of its sphere centres).  All
 moments are taken about that origin, so clumps far from the world origin
@@ -94,7 +96,7 @@ def _as_float_array(x, name):
     return a.astype(np.float64, copy=False)
 
 
-def real_pieces(pieces) -> bool:
+def _real_pieces(pieces) -> bool:
     """True if every array of a ragged batch is of a real numeric dtype (else _as_float_array explains)."""
     return all(isinstance(x, np.ndarray) and x.dtype.kind in _REAL_KINDS for x in pieces)
 
@@ -121,65 +123,128 @@ def check_density(density) -> float:
     return rho
 
 
-def normalize(centers, radii) -> Spheres:
-    """Check and flatten clump input; see the module docstring for layouts."""
-    ragged = (
-        isinstance(centers, (list, tuple))
-        and len(centers) > 0
-        and all(np.ndim(c) == 2 for c in centers)
-        and isinstance(radii, (list, tuple))
-    )
-    if ragged:
-        if len(centers) != len(radii):
-            raise ValueError(f"got {len(centers)} clumps of centers but {len(radii)} of radii")
-        cs, rs = [], []
-        for m, (c, r) in enumerate(zip(centers, radii)):
-            c = _as_float_array(c, f"centers[{m}]")
-            r = _as_float_array(r, f"radii[{m}]")
-            if c.ndim != 2 or c.shape[1] != 3:
-                raise ValueError(f"centers[{m}] must have shape (N, 3), got {c.shape}")
-            if r.shape != (c.shape[0],):
-                raise ValueError(f"radii[{m}] must have shape ({c.shape[0]},) to match centers[{m}], got {r.shape}")
-            if c.shape[0] == 0:
-                raise ValueError(f"clump {m} is empty (no spheres)")
-            cs.append(c)
-            rs.append(r)
-        counts = np.array([len(r) for r in rs], dtype=np.int64)
-        c_all = np.concatenate(cs, axis=0)
-        r_all = np.concatenate(rs)
-        batched = True
-    else:
+def flatten(centers, radii):
+    """Check the layout of clump input and flatten it: the one parser of ``centers`` and ``radii``.
+
+    Parameters
+    ----------
+    centers, radii : any of the three layouts of the module docstring.
+
+    Returns
+    -------
+    tuple ``(c, r, starts, N, M, batched)``: all spheres stacked, ``c`` (S, 3) and ``r`` (S,)
+    float64 (contiguous); ``starts`` (M + 1,) the first sphere of each clump and S for clumps of
+    different sizes, else None; ``N`` the spheres per clump (0 for different sizes); ``M`` the
+    number of clumps; ``batched`` True where the caller passed a batch.  A plain tuple: this runs
+    once per ``mass_properties`` call, where a microsecond counts.
+
+    Raises
+    ------
+    ValueError
+        naming the first problem of layout, shape or number type.  The values (NaN, inf,
+        radius <= 0) are :func:`check_values`' job.
+    """
+    if isinstance(centers, (list, tuple)) and isinstance(radii, (list, tuple)) and len(centers) > 0 \
+            and all(np.ndim(c) == 2 for c in centers):
+        return _flatten_ragged(centers, radii)
+    try:
         c = _as_float_array(centers, "centers")
-        r = _as_float_array(radii, "radii")
-        if c.ndim == 2:
-            batched = False
-            if r.shape != (c.shape[0],):
-                raise ValueError(f"radii must have shape ({c.shape[0]},) to match centers {c.shape}, got {r.shape}")
-            c = c[None]
-            r = r[None]
-        elif c.ndim == 3:
-            batched = True
-        else:
-            raise ValueError(f"centers must have shape (N, 3) or (M, N, 3), got {c.shape}")
-        if c.shape[-1] != 3:
-            raise ValueError(f"centers must have 3 coordinates in the last axis, got shape {c.shape}")
-        if r.shape != c.shape[:-1]:
-            want = c.shape[1:-1] if not batched else c.shape[:-1]
-            raise ValueError(f"radii must have shape {want} to match centers {centers_shape(centers)}, got {np.shape(radii)}")
-        if c.shape[0] == 0:
-            raise ValueError("empty batch: no clumps")
-        if c.shape[1] == 0:
-            raise ValueError("empty clump: no spheres")
+    except ValueError:
+        if isinstance(centers, (list, tuple)):  # numpy's own error where the nesting is uneven inside a clump
+            all(np.ndim(x) == 2 for x in centers)
+        raise
+    r = _as_float_array(radii, "radii")
+    if c.ndim == 2 and c.shape[1] == 3 and r.shape == (c.shape[0],) and c.shape[0] > 0:
+        return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, False
+    if c.ndim == 3 and c.shape[2] == 3 and r.shape == c.shape[:2] and c.shape[0] > 0 and c.shape[1] > 0:
         M, N = c.shape[:2]
-        counts = np.full(M, N, dtype=np.int64)
-        c_all = c.reshape(-1, 3)
-        r_all = r.reshape(-1)
-    if not np.all(np.isfinite(c_all)):
+        return np.ascontiguousarray(c).reshape(M * N, 3), np.ascontiguousarray(r).reshape(M * N), None, N, M, True
+    _raise_layout_error(c, r, centers, radii)
+
+
+def _raise_layout_error(c, r, centers, radii):
+    """The ValueError for one clump (N, 3) or a regular batch (M, N, 3) that :func:`flatten` refused."""
+    if c.ndim == 2:
+        if r.shape != (c.shape[0],):
+            raise ValueError(f"radii must have shape ({c.shape[0]},) to match centers {c.shape}, got {r.shape}")
+        c, r = c[None], r[None]
+    elif c.ndim != 3:
+        raise ValueError(f"centers must have shape (N, 3) or (M, N, 3), got {c.shape}")
+    if c.shape[-1] != 3:
+        raise ValueError(f"centers must have 3 coordinates in the last axis, got shape {c.shape}")
+    if r.shape != c.shape[:-1]:
+        raise ValueError(f"radii must have shape {c.shape[:-1]} to match centers {centers_shape(centers)}, "
+                         f"got {np.shape(radii)}")
+    if c.shape[0] == 0:
+        raise ValueError("empty batch: no clumps")
+    raise ValueError("empty clump: no spheres")
+
+
+def _flatten_ragged(centers, radii):
+    """:func:`flatten` for a sequence of M arrays (N_m, 3) and a sequence of M arrays (N_m,): one
+    concatenation where every piece is well formed, else each piece checked in turn."""
+    M = len(centers)
+    if len(radii) != M:
+        raise ValueError(f"got {len(centers)} clumps of centers but {len(radii)} of radii")
+    if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
+        try:
+            c, r = _as_float_array(centers[0], ""), _as_float_array(radii[0], "")
+        except ValueError:
+            c = r = None
+        if c is None or c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
+            _checked_pieces(centers, radii)  # raises naming the piece
+        return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
+    pieces = (centers, radii) if _real_pieces(centers) and _real_pieces(radii) else _checked_pieces(centers, radii)
+    try:
+        nc = np.fromiter(map(len, pieces[0]), np.int64, M)
+        nr = np.fromiter(map(len, pieces[1]), np.int64, M)
+        c = np.concatenate(pieces[0], axis=0, dtype=np.float64)
+        r = np.concatenate(pieces[1], axis=0, dtype=np.float64)
+        well_formed = (np.array_equal(nc, nr) and not np.any(nc == 0) and c.ndim == 2 and c.shape[1:] == (3,)
+                       and r.shape == (len(c),))
+    except (TypeError, ValueError):
+        well_formed = False
+    if not well_formed:
+        _checked_pieces(centers, radii)  # raises naming the piece
+        raise ValueError("centers and radii do not form clumps of spheres")  # pragma: no cover
+    starts = np.zeros(M + 1, np.int64)
+    np.cumsum(nc, out=starts[1:])
+    N = int(nc[0]) if np.all(nc == nc[0]) else 0
+    return np.ascontiguousarray(c), r, (None if N else starts), N, M, True
+
+
+def _checked_pieces(centers, radii):
+    """The pieces of a ragged batch as float64 arrays, clump by clump; ValueError naming the first bad piece."""
+    cs, rs = [], []
+    for m, (c, r) in enumerate(zip(centers, radii)):
+        c = _as_float_array(c, f"centers[{m}]")
+        r = _as_float_array(r, f"radii[{m}]")
+        if c.ndim != 2 or c.shape[1] != 3:
+            raise ValueError(f"centers[{m}] must have shape (N, 3), got {c.shape}")
+        if r.shape != (c.shape[0],):
+            raise ValueError(f"radii[{m}] must have shape ({c.shape[0]},) to match centers[{m}], got {r.shape}")
+        if c.shape[0] == 0:
+            raise ValueError(f"clump {m} is empty (no spheres)")
+        cs.append(c)
+        rs.append(r)
+    return cs, rs
+
+
+def check_values(c, r):
+    """ValueError where the flat centres ``c`` (S, 3) hold NaN or inf, or the flat radii ``r`` (S,)
+    NaN, inf or a value <= 0 (the flat index of the first ones named)."""
+    if not np.all(np.isfinite(c)):
         raise ValueError("centers contains NaN or inf")
-    _check_finite_positive(r_all)
-    M = len(counts)
-    N = int(counts[0]) if np.all(counts == counts[0]) else 0
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    _check_finite_positive(r)
+
+
+def normalize(centers, radii) -> Spheres:
+    """Check and flatten clump input (:func:`flatten`, :func:`check_values`) into :class:`Spheres`,
+    each clump about its origin; see the module docstring for layouts."""
+    c_all, r_all, starts, N, M, batched = flatten(centers, radii)
+    check_values(c_all, r_all)
+    counts = np.full(M, N, dtype=np.int64) if starts is None else np.diff(starts)
+    starts = starts[:-1] if starts is not None else np.arange(0, M * N, N, dtype=np.int64)
     # origin: volume-weighted mean of sphere centres, accumulated relative to the first
     # sphere so that the sum involves only small numbers
     # radii ~1e103 and up overflow r^3 here: the result is then non-finite and the assembly raises

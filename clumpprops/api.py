@@ -20,7 +20,6 @@ METHODS = ("exact", "pairwise", "sum", "montecarlo", "voxel")
 _BATCH_CHUNK = 32768  # clumps per core call for large batches (errors name the clump of the whole batch)
 DEFAULT_METHOD = "exact"
 _CORE = {"exact": _core.EXACT, "pairwise": _core.PAIRWISE, "sum": _core.SUM}
-_F64 = np.float64
 
 
 def _method(method, options):
@@ -92,64 +91,9 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
         return finish(V, S, Q, sph.origin, rho, name, sph.batched)
 
 
-def _flatten(centers, radii):
-    """(centers (S,3), radii (S,), starts (M+1,) or None, N if regular, M, batched), or None if invalid."""
-    if isinstance(centers, (list, tuple)) and isinstance(radii, (list, tuple)) and len(centers) > 0 \
-            and all(np.ndim(c) == 2 for c in centers):
-        # ragged batch: list of (N_m, 3) and list of (N_m,)
-        M = len(centers)
-        if len(radii) != M:
-            return None
-        if M == 1:  # one clump given as a batch of one (the YADE adapter's append_clump)
-            c, r = _real(centers[0]), _real(radii[0])
-            if c is None or r is None:
-                return None
-            if c.ndim != 2 or c.shape[1] != 3 or r.shape != (c.shape[0],) or c.shape[0] == 0:
-                return None
-            return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, True
-        if not (_input.real_pieces(centers) and _input.real_pieces(radii)):
-            centers, radii = [_real(x) for x in centers], [_real(x) for x in radii]
-            if any(x is None for x in centers) or any(x is None for x in radii):
-                return None  # booleans, complex numbers, strings: normalize explains
-        try:
-            nc = np.fromiter(map(len, centers), np.int64, M)
-            nr = np.fromiter(map(len, radii), np.int64, M)
-            c = np.concatenate(centers, axis=0, dtype=_F64)
-            r = np.concatenate(radii, axis=0, dtype=_F64)
-        except (TypeError, ValueError):
-            return None
-        if not np.array_equal(nc, nr) or np.any(nc == 0) or c.ndim != 2 or c.shape[1:] != (3,) or r.shape != (len(c),):
-            return None
-        starts = np.zeros(M + 1, np.int64)
-        np.cumsum(nc, out=starts[1:])
-        N = int(nc[0]) if np.all(nc == nc[0]) else 0
-        return np.ascontiguousarray(c), r, (None if N else starts), N, M, True
-    c, r = _real(centers), _real(radii)
-    if c is None or r is None:
-        return None
-    if c.ndim == 2 and c.shape[1] == 3 and r.shape == (c.shape[0],) and c.shape[0] > 0:
-        return np.ascontiguousarray(c), np.ascontiguousarray(r), None, c.shape[0], 1, False
-    if c.ndim == 3 and c.shape[2] == 3 and r.shape == c.shape[:2] and c.shape[0] > 0 and c.shape[1] > 0:
-        M, N = c.shape[:2]
-        return np.ascontiguousarray(c).reshape(M * N, 3), np.ascontiguousarray(r).reshape(M * N), None, N, M, True
-    return None
-
-
-def _real(x):
-    """x as a float64 array, or None where it is not an array of real numbers (normalize explains)."""
-    try:
-        return _input._as_float_array(x, "")
-    except ValueError:
-        return None
-
-
 def _compiled(centers, radii, rho, name):
-    flat = _flatten(centers, radii)
-    if flat is None:
-        _input.normalize(centers, radii)  # raises ValueError naming the problem
-        raise ValueError("centers and radii do not form clumps of spheres")  # pragma: no cover
-    c, r, starts, N, M, batched = flat
-    c, r, exponent = _unit_scale(c, r, starts, N, M)
+    c_given, r_given, starts, N, M, batched = _input.flatten(centers, radii)
+    c, r, exponent = _unit_scale(c_given, r_given, starts, N, M)
     mass, vol = np.empty(M), np.empty(M)
     com, inertia = np.empty((M, 3)), np.empty((M, 3, 3))
     w, axes = np.empty((M, 3)), np.empty((M, 3, 3))
@@ -158,7 +102,7 @@ def _compiled(centers, radii, rho, name):
         status = _core.run(code, c, r, starts, N, m0, min(M, m0 + _BATCH_CHUNK), rho, True, True,
                            mass, vol, com, inertia, w, axes)
         if status[0]:
-            _core_error(status, centers, radii, batched, name)
+            _core_error(status, c_given, r_given, batched, name)
     if exponent is not None:
         mass, vol, com, inertia, w = _scale_back(exponent, mass, vol, com, inertia, w)
     _check_representable(mass, w, batched)
@@ -219,7 +163,8 @@ def _check_representable(mass, w, batched):
                              "and inertia as density * r^5; express the input in other units")
 
 
-def _core_error(status, centers, radii, batched, name):
+def _core_error(status, c_given, r_given, batched, name):
+    """The error for a core status: ``c_given`` (S, 3) and ``r_given`` (S,) the flat input as given."""
     code, m = status[0], status[1]
     where = f" of clump {m}" if batched else ""
     if code == _core.TRIPLE:
@@ -237,5 +182,5 @@ def _core_error(status, centers, radii, batched, name):
         )
     if code == _core.NONPOSITIVE_VOLUME:
         raise ArithmeticError(f"internal error in method {name!r}: non-positive volume{where}")
-    _input.normalize(centers, radii)  # bad values (NaN, inf, radius <= 0): raises naming the problem
+    _input.check_values(c_given, r_given)  # bad values (NaN, inf, radius <= 0): raises naming the problem
     raise ValueError(f"invalid sphere data{where}")  # pragma: no cover

@@ -33,7 +33,8 @@ import numpy as np
 
 from . import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__, mass_properties
 from ._argtypes import _int, _positive_float, _positive_int
-from .textclumps import TextClump, TextClumpsError, read_text_clumps
+from ._clumps import Clump, ClumpFileError
+from .textclumps import read_text_clumps
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, YADE's default material density
 
@@ -108,13 +109,13 @@ def _method_options(args, parser) -> dict:
     return opts
 
 
-def _describe(clump: TextClump) -> str:
+def _describe(clump: Clump) -> str:
     lo, hi = clump.first_line, clump.last_line
     where = f"line {lo}" if lo == hi else f"lines {lo}-{hi}"
     return f"clump id {clump.clump_id} ({where})"
 
 
-def compute(clumps: Sequence[TextClump], method: str, density: float, options: dict):
+def compute(clumps: Sequence[Clump], method: str, density: float, options: dict):
     """Library results for the method and for the summed spheres, as batches over the clumps.
 
     The library's documented errors become :class:`CLIError` (one line, exit status 1):
@@ -160,7 +161,7 @@ def _rows(clumps, mp, summed):
         yield i, row
 
 
-def _zero_noise(com, clump: TextClump, rel=1e-13):
+def _zero_noise(com, clump: Clump, rel=1e-13):
     """COM components below rel * (clump size) are round-off: shown as 0 in the table (csv/json keep them)."""
     size = float(np.max(np.linalg.norm(clump.centers - np.asarray(com), axis=1) + clump.radii))
     return [0.0 if abs(x) <= rel * size else x for x in com]
@@ -262,7 +263,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     options = _method_options(args, parser)
     try:
         clumps = read_text_clumps(args.file, scale=args.scale)
-    except TextClumpsError as exc:  # malformed file: names the line
+    except ClumpFileError as exc:  # malformed file: names the line
         return _fail(str(exc))
     except OSError as exc:
         return _fail(f"cannot read {args.file}: {exc.strerror or exc}")

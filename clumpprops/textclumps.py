@@ -13,14 +13,14 @@ Format, as read by YADE's ``yade.ymport.textClumps`` (and written by
 * consecutive lines with the same ``clumpId`` form one clump; a line with a
   different ``clumpId`` starts a new clump.  Like YADE, an id that comes back
   after another id starts a *new* clump (ids ``0 0 1 0`` are three clumps);
-  :attr:`TextClump.repeated_id` flags that case so callers can warn;
+  :attr:`Clump.repeated_id <clumpprops.io.Clump>` flags that case so callers can warn;
 * words after the fifth are ignored, as YADE ignores them (so a trailing
   ``# comment`` is allowed).
 
 Differences from YADE, all stricter or friendlier, never a different grouping:
 blank lines are skipped (YADE stops with an IndexError); a short line, a word
 that is not a number, a non-finite value, a radius <= 0 or a non-integer
-``clumpId`` raise :class:`TextClumpsError` with the line number (YADE raises a bare
+``clumpId`` raise :class:`~clumpprops.io.ClumpFileError` with the line number (YADE raises a bare
 ``ValueError`` or silently builds a broken clump).  ``clumpId`` must be an integer, as
 YADE's ``int()`` demands, so ``3.0`` is rejected.  Numbers are ASCII only
 (:mod:`clumpprops._numtext`): ``1_0`` and non-ASCII digits such as ``١٠``, which Python's
@@ -46,82 +46,47 @@ from __future__ import annotations
 import itertools
 import math
 import sys
+import warnings
 from array import array
 from collections import abc
 from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
+from ._clumps import Clump, ClumpFileError
 from ._numtext import BOM, fast_table, float_columns, is_float, strict_float, strict_int
 
-__all__ = ["TextClump", "TextClumps", "TextClumpsError", "parse_text_clumps", "read_text_clumps"]
+__all__ = ["TextClumps", "parse_text_clumps", "read_text_clumps"]
 
 
-class TextClumpsError(ValueError):
-    """A malformed line in a textClumps file; ``lineno`` is 1-based (None if not tied to a line)."""
-
-    def __init__(self, message: str, source: str = "<text>", lineno: Optional[int] = None):
-        self.source = source
-        self.lineno = lineno
-        self.reason = message
-        where = f"{source}:{lineno}: " if lineno is not None else f"{source}: "
-        super().__init__(where + message)
+_DEPRECATED = {"TextClump": Clump, "TextClumpsError": ClumpFileError}
 
 
-class TextClump:
-    """One clump read from the file (a view into the parsed arrays).
-
-    ``clump_id`` the file's integer id; ``centers`` (N, 3) m and ``radii`` (N,) m after
-    ``scale``/``shift``; ``lines`` (N,) the 1-based line number of each sphere (a tuple);
-    ``repeated_id`` True if the same id already labelled an earlier, separate clump.
-    """
-
-    __slots__ = ("_owner", "_a", "_b", "clump_id", "repeated_id")
-
-    def __init__(self, owner, a, b, clump_id, repeated_id):
-        self._owner, self._a, self._b = owner, a, b
-        self.clump_id = clump_id
-        self.repeated_id = repeated_id
-
-    @property
-    def centers(self) -> np.ndarray:
-        return self._owner.centers[self._a:self._b]
-
-    @property
-    def radii(self) -> np.ndarray:
-        return self._owner.radii[self._a:self._b]
-
-    @property
-    def lines(self) -> tuple:
-        return tuple(self._owner.lines[self._a:self._b].tolist())
-
-    @property
-    def first_line(self) -> int:
-        return int(self._owner.lines[self._a])
-
-    @property
-    def last_line(self) -> int:
-        return int(self._owner.lines[self._b - 1])
-
-    @property
-    def n_spheres(self) -> int:
-        return self._b - self._a
-
-    def __repr__(self):
-        return f"TextClump(clump_id={self.clump_id}, n_spheres={self.n_spheres}, lines {self.first_line}-{self.last_line})"
+def __getattr__(name):
+    """``TextClump`` and ``TextClumpsError``: deprecated aliases of :class:`clumpprops.io.Clump` and
+    :class:`clumpprops.io.ClumpFileError` (the same classes; a DeprecationWarning says so)."""
+    if name in _DEPRECATED:
+        new = _DEPRECATED[name]
+        warnings.warn(f"clumpprops.textclumps.{name} is deprecated: it is clumpprops.io.{new.__name__}, "
+                      "the clump record and file error of every reader", DeprecationWarning, stacklevel=2)
+        return new
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class TextClumps(abc.Sequence):
-    """The clumps of a file: a read-only sequence of :class:`TextClump`, backed by flat arrays.
+    """The clumps of a file: a read-only sequence of :class:`~clumpprops.io.Clump`, backed by flat arrays.
 
     ``centers`` (S, 3), ``radii`` (S,), ``lines`` (S,) for all S spheres in file order;
     ``starts`` (M + 1,) the first sphere of each clump (and S); ``ids`` (M,) the clump ids;
-    ``repeated`` (M,) bool.
+    ``repeated`` (M,) bool; ``source`` the file's name.  Item k is a ``Clump`` whose ``centers``
+    and ``radii`` are views into the flat arrays, with its ``clump_id``, ``repeated_id`` and
+    ``lines``, named ``clump``.
     """
 
-    def __init__(self, centers, radii, lines, starts, ids, repeated):
+    def __init__(self, centers, radii, lines, starts, ids, repeated, source="<text>"):
         self.centers, self.radii, self.lines = centers, radii, lines
         self.starts, self.ids, self.repeated = starts, ids, repeated
+        self.source = source
         for a in (centers, radii, lines, starts, ids, repeated):
             a.flags.writeable = False
 
@@ -136,7 +101,9 @@ class TextClumps(abc.Sequence):
             k += n
         if not 0 <= k < n:
             raise IndexError("clump index out of range")
-        return TextClump(self, int(self.starts[k]), int(self.starts[k + 1]), int(self.ids[k]), bool(self.repeated[k]))
+        a, b = int(self.starts[k]), int(self.starts[k + 1])
+        return Clump(self.centers[a:b], self.radii[a:b], "clump", self.source, tuple(self.lines[a:b].tolist()),
+                     int(self.ids[k]), bool(self.repeated[k]))
 
 
 _COLUMNS = ("x", "y", "z", "r")
@@ -172,8 +139,8 @@ def _first_bad_value(vals: np.ndarray, lines, source):
     lineno = int(lines[i])
     for k in range(4):
         if bad[i, k]:
-            raise TextClumpsError(f"{_COLUMNS[k]} is not finite: {a[i, k]!r}", source, lineno)
-    raise TextClumpsError(f"radius must be > 0 (m), got {a[i, 3]!r}", source, lineno)
+            raise ClumpFileError(f"{_COLUMNS[k]} is not finite: {a[i, k]!r}", source, lineno)
+    raise ClumpFileError(f"radius must be > 0 (m), got {a[i, 3]!r}", source, lineno)
 
 
 def parse_text_clumps(
@@ -182,17 +149,17 @@ def parse_text_clumps(
     scale: float = 1.0,
     shift: Sequence[float] = (0.0, 0.0, 0.0),
 ) -> TextClumps:
-    """Parse textClumps lines (see the module docstring) into a sequence of :class:`TextClump`.
+    """Parse textClumps lines (see the module docstring) into a sequence of :class:`~clumpprops.io.Clump`.
 
-    ``source`` names the input in error messages.  Raises :class:`TextClumpsError`
+    ``source`` names the input in error messages.  Raises :class:`~clumpprops.io.ClumpFileError`
     for malformed lines (the first one in file order) and for input without any sphere.
     """
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
-        raise TextClumpsError(f"scale must be a positive finite number, got {scale!r}", source)
+        raise ClumpFileError(f"scale must be a positive finite number, got {scale!r}", source)
     shift = np.asarray(shift, dtype=np.float64)
     if shift.shape != (3,) or not np.all(np.isfinite(shift)):
-        raise TextClumpsError(f"shift must be 3 finite numbers, got {shift.tolist()!r}", source)
+        raise ClumpFileError(f"shift must be 3 finite numbers, got {shift.tolist()!r}", source)
 
     vals = array("d")  # x, y, z, r per sphere
     ids = array("q")
@@ -207,7 +174,7 @@ def parse_text_clumps(
             if not _fast_chunk(chunk, lineno, vals, ids, lns):
                 _slow_chunk(chunk, lineno, vals, ids, lns, source)
             lineno += len(chunk)
-    except TextClumpsError:
+    except ClumpFileError:
         # an earlier line may hold a non-finite value or a bad radius: report the first error in the file
         _first_bad_value(np.frombuffer(vals, dtype=np.float64), np.frombuffer(lns, dtype=np.int64), source)
         raise
@@ -215,7 +182,7 @@ def parse_text_clumps(
     line_arr = np.frombuffer(lns, dtype=np.int64)
     _first_bad_value(a.ravel(), line_arr, source)
     if len(a) == 0:
-        raise TextClumpsError("no spheres found (expected lines 'x y z r clumpId')", source)
+        raise ClumpFileError("no spheres found (expected lines 'x y z r clumpId')", source)
     id_arr = np.frombuffer(ids, dtype=np.int64)
     starts = np.concatenate(([0], np.flatnonzero(id_arr[1:] != id_arr[:-1]) + 1, [len(id_arr)]))
     clump_ids = id_arr[starts[:-1]]
@@ -223,7 +190,7 @@ def parse_text_clumps(
     repeated = first[inverse] != np.arange(len(clump_ids))
     centers = a[:, :3] * scale + shift if (scale != 1.0 or np.any(shift)) else a[:, :3].copy()
     radii = a[:, 3] * scale if scale != 1.0 else a[:, 3].copy()
-    return TextClumps(centers, radii, line_arr.copy(), starts, clump_ids.copy(), repeated)
+    return TextClumps(centers, radii, line_arr.copy(), starts, clump_ids.copy(), repeated, source)
 
 
 def _without_bom(it):
@@ -263,22 +230,22 @@ def _slow_chunk(chunk, offset, vals, ids, lns, source):
         if not data or data[0][0] == "#":
             continue
         if len(data) < 5:
-            raise TextClumpsError(
+            raise ClumpFileError(
                 f"expected 5 columns 'x y z r clumpId', got {len(data)}: {line.strip()!r}", source, lineno
             )
         try:
             extend((strict_float(data[0]), strict_float(data[1]), strict_float(data[2]), strict_float(data[3])))
         except ValueError:
             k = next(k for k in range(4) if not is_float(data[k]))
-            raise TextClumpsError(f"{_COLUMNS[k]} is not a number: {data[k]!r}", source, lineno) from None
+            raise ClumpFileError(f"{_COLUMNS[k]} is not a number: {data[k]!r}", source, lineno) from None
         try:
             cid = strict_int(data[4])
         except ValueError:
             del vals[-4:]
-            raise TextClumpsError(_id_error(data[4]), source, lineno) from None
+            raise ClumpFileError(_id_error(data[4]), source, lineno) from None
         if not -_ID_MAX <= cid <= _ID_MAX:
             del vals[-4:]
-            raise TextClumpsError(f"clumpId {data[4]!r} is out of range (|id| < 2**63)", source, lineno)
+            raise ClumpFileError(f"clumpId {data[4]!r} is out of range (|id| < 2**63)", source, lineno)
         add_id(cid)
         add_line(lineno)
 
@@ -286,7 +253,7 @@ def _slow_chunk(chunk, offset, vals, ids, lns, source):
 def read_text_clumps(path, scale: float = 1.0, shift: Sequence[float] = (0.0, 0.0, 0.0)) -> TextClumps:
     """Read a textClumps file (``path``, or ``"-"`` for standard input); see :func:`parse_text_clumps`.
 
-    Raises ``OSError`` if the file cannot be read and :class:`TextClumpsError` if it is malformed.
+    Raises ``OSError`` if the file cannot be read and :class:`~clumpprops.io.ClumpFileError` if it is malformed.
     """
     if str(path) == "-":
         return parse_text_clumps(sys.stdin, "<stdin>", scale, shift)
@@ -294,4 +261,4 @@ def read_text_clumps(path, scale: float = 1.0, shift: Sequence[float] = (0.0, 0.
         with open(path, "r", encoding="utf-8") as f:
             return parse_text_clumps(f, str(path), scale, shift)
     except UnicodeDecodeError as exc:
-        raise TextClumpsError(f"not a text file ({exc.reason})", str(path)) from None
+        raise ClumpFileError(f"not a text file ({exc.reason})", str(path)) from None

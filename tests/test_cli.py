@@ -18,7 +18,8 @@ import pytest
 
 import clumpprops
 from clumpprops import mass_properties
-from clumpprops.textclumps import TextClumpsError, parse_text_clumps, read_text_clumps
+from clumpprops.io import Clump, ClumpFileError
+from clumpprops.textclumps import parse_text_clumps, read_text_clumps
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "clumps.txt"
@@ -99,14 +100,14 @@ def test_reader_scale_and_shift_as_in_ymport():
     ],
 )
 def test_reader_errors_name_the_line(line, match):
-    with pytest.raises(TextClumpsError, match=match) as info:
+    with pytest.raises(ClumpFileError, match=match) as info:
         parse_text_clumps(["0 0 0 1 0\n", line + "\n"], "f.txt")
     assert info.value.lineno == 2
     assert isinstance(info.value, ValueError)
 
 
 def test_reader_empty_file():
-    with pytest.raises(TextClumpsError, match="no spheres"):
+    with pytest.raises(ClumpFileError, match="no spheres"):
         parse_text_clumps(["# only a comment\n", "\n"], "f.txt")
 
 
@@ -115,6 +116,47 @@ def test_yade_export_format_round_trip(tmpfile):
     text = "#format x_y_z_r_clumpId\n# exported\n0\t0\t-0.033325\t0.06665\t12\n0\t0\t0.033325\t0.06665\t12\n"
     cl = read_text_clumps(tmpfile(text))
     assert len(cl) == 1 and cl[0].clump_id == 12 and cl[0].n_spheres == 2
+
+
+
+def test_reader_clumps_are_the_io_clump_type(tmpfile):
+    """textClumps and clumpprops.io.read give the same record for a file: one Clump type."""
+    from clumpprops.io import read
+
+    path = tmpfile("0 0 0 1 7\n1 0 0 1 7\n5 0 0 2 3\n9 0 0 1 7\n")
+    parsed = read_text_clumps(path)
+    via_io = read(path, "yade")
+    assert all(type(c) is Clump for c in list(parsed) + via_io)
+    assert [c.clump_id for c in via_io] == [c.clump_id for c in parsed] == [7, 3, 7]
+    assert [c.repeated_id for c in via_io] == [c.repeated_id for c in parsed] == [False, False, True]
+    assert [c.lines for c in via_io] == [c.lines for c in parsed] == [(1, 2), (3,), (4,)]
+    assert [(c.first_line, c.last_line) for c in parsed] == [(1, 2), (3, 3), (4, 4)]
+    assert parsed[0].source == str(path)
+    for a, b in zip(parsed, via_io):
+        np.testing.assert_array_equal(a.centers, b.centers)
+        np.testing.assert_array_equal(a.radii, b.radii)
+    assert repr(parsed[1]) == f"Clump(name='clump', clump_id=3, n_spheres=1, source={str(path)!r}, lines 3-3)"
+
+
+def test_textclumps_names_are_deprecated_aliases():
+    import clumpprops.textclumps as tc
+
+    with pytest.warns(DeprecationWarning, match="TextClumpsError is deprecated: it is clumpprops.io.ClumpFileError"):
+        err = tc.TextClumpsError
+    with pytest.warns(DeprecationWarning, match="TextClump is deprecated: it is clumpprops.io.Clump"):
+        rec = tc.TextClump
+    assert err is ClumpFileError and rec is Clump
+    with pytest.raises(err, match=r"^f.txt:1: x is not a number: 'a'$"):
+        parse_text_clumps(["a 0 0 1 0\n"], "f.txt")
+    with pytest.raises(AttributeError):
+        tc.NoSuchName  # noqa: B018
+
+
+def test_file_error_is_one_line():
+    exc = ClumpFileError("two\n  lines   here", "f.txt", 3)
+    assert str(exc) == "f.txt:3: two lines here"
+    assert (exc.source, exc.lineno, exc.reason) == ("f.txt", 3, "two\n  lines   here")
+    assert str(ClumpFileError("no line", "f.txt")) == "f.txt: no line"
 
 
 # ---------------------------------------------------------------- CLI output vs library
@@ -421,5 +463,5 @@ def test_fast_and_careful_parsers_agree():
     for name in ("centers", "radii", "lines", "starts", "ids", "repeated"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(slow, name))
     assert not tc._fast_chunk(["1_0 2 3 4 7\n"], 0, array("d"), array("q"), array("q"))
-    with pytest.raises(TextClumpsError, match=r"^t:306: x is not a number: '1_0'$"):
+    with pytest.raises(ClumpFileError, match=r"^t:306: x is not a number: '1_0'$"):
         tc.parse_text_clumps(text + ["1_0 2 3 4 7\n"], "t")  # Python's float() would read 10

@@ -1,6 +1,6 @@
 """The compiled core (clumpprops/core/clumpprops.hpp) against independent routes.
 
-* the numpy implementation of the exact method (``clumpprops._exact_numpy``, the test
+* the numpy implementation of the exact method (``tests/_exact_numpy.py``, the test
   oracle: same mathematics, vectorised, per-arc sign tests instead of the core's coverage
   depth) on thousands of random and near-degenerate clumps (``_core_cases``): 2,200 here,
   ``CLUMPPROPS_CORE_CASES=10000`` (``make test-core``) for the long run;
@@ -17,10 +17,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import clumpprops as cp
-from clumpprops import _exact_numpy, _input
+from clumpprops import _input
 from clumpprops._properties import finish
 from clumpprops.pairwise import pairwise_moments
 
+import _exact_numpy
 import reference_slicing as rs
 from _core_cases import KINDS, cases
 

@@ -11,7 +11,7 @@ import pytest
 from clumpprops.io import ClumpFileError, read
 from clumpprops.io import readers as R
 from clumpprops._numtext import fast_table, strict_float, strict_int
-from clumpprops.textclumps import TextClumpsError, parse_text_clumps, read_text_clumps
+from clumpprops.textclumps import parse_text_clumps, read_text_clumps
 
 # refused by every reader (Python's float() reads the first six as numbers), then words that are numbers
 REFUSED = ["1_0", "1_000.5", "\u0661\u0660", "\u0661.5", "\uff15", "\u0967", "0x10", "1d3", "1e", "e5", "+-1", "nan(1)",
@@ -116,7 +116,7 @@ def test_utf8_byte_order_mark_is_skipped(tmp_path, name, text):
 def test_byte_order_mark_in_text_clumps_lines_and_mid_file():
     cl = parse_text_clumps(["\ufeff0 0 0 1 5\n", "1 0 0 1 5\n"], "t")
     assert cl[0].clump_id == 5 and cl[0].n_spheres == 2
-    with pytest.raises(TextClumpsError, match=r"^t:2: x is not a number"):  # only at the start of the file
+    with pytest.raises(ClumpFileError, match=r"^t:2: x is not a number"):  # only at the start of the file
         parse_text_clumps(["0 0 0 1 5\n", "\ufeff1 0 0 1 5\n"], "t")
 
 
@@ -228,7 +228,7 @@ def test_text_clumps_fast_and_line_by_line_agree_on_refusals():
             line[col] = word
             if word == "" or (col < 4 and word in ("3.0", "1e+06", "99999999999999999999")):
                 continue
-            with pytest.raises(TextClumpsError) as exc:
+            with pytest.raises(ClumpFileError) as exc:
                 parse_text_clumps(good + [" ".join(line) + "\n"] + good, "t")
             assert exc.value.lineno == 201, (word, col, str(exc.value))
 
@@ -254,5 +254,5 @@ def test_unusual_whitespace_splits_as_python_split(sep):
         cl = parse_text_clumps([line], "t")
         assert cl.centers.tolist() == [[1.0, 2.0, 3.0]] and cl.radii.tolist() == [4.0] and cl.ids.tolist() == [5]
     else:
-        with pytest.raises(TextClumpsError, match=r"^t:1: expected 5 columns"):
+        with pytest.raises(ClumpFileError, match=r"^t:1: expected 5 columns"):
             parse_text_clumps([line], "t")

@@ -215,3 +215,33 @@ def test_results_do_not_alias_the_input():
 
 def test_exceptions_are_value_errors():
     assert issubclass(clumpprops.ClumpGeometryError, ValueError)
+
+
+def test_one_parser_for_the_core_and_the_numpy_methods():
+    """_input.flatten stacks the three layouts alike; normalize (the numpy methods' input) is built on
+    it, so a layout error reads the same whichever method is asked for."""
+    from clumpprops import _input
+
+    rng = np.random.default_rng(3)
+    c = rng.normal(size=(2, 3, 3))
+    r = rng.uniform(0.5, 1.0, (2, 3))
+    one = _input.flatten(c[0], r[0])
+    regular = _input.flatten(c, r)
+    ragged = _input.flatten([c[0], c[1, :2]], [r[0], r[1, :2]])
+    np.testing.assert_array_equal(one[0], c[0])
+    assert one[2:] == (None, 3, 1, False)
+    np.testing.assert_array_equal(regular[0], c.reshape(6, 3))
+    np.testing.assert_array_equal(regular[1], r.ravel())
+    assert regular[2:] == (None, 3, 2, True)
+    np.testing.assert_array_equal(ragged[0], np.concatenate([c[0], c[1, :2]]))
+    assert ragged[2].tolist() == [0, 3, 5] and ragged[3:] == (0, 2, True)
+    sph = _input.normalize([c[0], c[1, :2]], [r[0], r[1, :2]])
+    assert sph.counts.tolist() == [3, 2] and sph.starts.tolist() == [0, 3] and sph.regular == 0
+    np.testing.assert_allclose(sph.centers + sph.origin[sph.clump], ragged[0], rtol=0, atol=1e-15)
+    bad = ([c[0], c[1, :, :2]], [r[0], r[1]])
+    messages = set()
+    for method in ("exact", "pairwise", "sum", "montecarlo", "voxel"):
+        with pytest.raises(ValueError) as info:
+            mass_properties(*bad, method=method)
+        messages.add(str(info.value))
+    assert messages == {"centers[1] must have shape (N, 3), got (3, 2)"}

@@ -1,4 +1,6 @@
-"""Shared pieces of the engine exporters and importers: the clump record, errors, headers.
+"""Shared pieces of the engine exporters and importers: the batch computation, number text, headers.
+
+The clump record and the file error are :mod:`clumpprops._clumps`' (re-exported here).
 
 Everything is SI: lengths in m, density in kg/m^3, mass in kg, inertia in kg m^2.
 Numbers are written with ``repr`` (17 significant digits), so a float64 survives the
@@ -6,39 +8,14 @@ round trip through any of the text formats exactly.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import List, Optional, Sequence
+from typing import List, Sequence
 
 import numpy as np
 
 from .. import __version__, mass_properties
+from .._clumps import Clump, ClumpFileError
 
 __all__ = ["Clump", "ClumpFileError", "compute", "header_lines", "fnum", "fmt_rows"]
-
-
-class ClumpFileError(ValueError):
-    """A bad input file, reported as one line ``FILE:LINE: reason`` (``FILE: reason`` if no line)."""
-
-    def __init__(self, reason: str, source: str = "<input>", lineno: Optional[int] = None):
-        self.source, self.lineno, self.reason = str(source), lineno, reason
-        where = f"{source}:{lineno}: " if lineno is not None else f"{source}: "
-        super().__init__(where + " ".join(str(reason).split()))
-
-
-@dataclass(frozen=True)
-class Clump:
-    """One clump: ``centers`` (N, 3) m, ``radii`` (N,) m, a name used for file names,
-    the file it came from and the 1-based line of each sphere (0 where not tied to a line)."""
-
-    centers: np.ndarray
-    radii: np.ndarray
-    name: str = "clump"
-    source: str = "<input>"
-    lines: tuple = field(default=())
-
-    @property
-    def n_spheres(self) -> int:
-        return len(self.radii)
 
 
 def fnum(x) -> str:

@@ -277,16 +277,15 @@ def _mclump_rows(text, src):
 def read_yade(path, scale: float = 1.0) -> List[Clump]:
     """All clumps of a YADE ``textClumps`` file (``clumpprops.textclumps`` rules: consecutive
     lines with one clumpId form a clump)."""
-    from ..textclumps import TextClumpsError, read_text_clumps
+    from ..textclumps import read_text_clumps
 
     try:
         tcs = read_text_clumps(path, scale=scale)
-    except TextClumpsError as exc:
-        lineno = exc.lineno
-        if lineno is None and "no spheres" in exc.reason:  # point at the end of the file
+    except ClumpFileError as exc:
+        if exc.lineno is None and "no spheres" in exc.reason:  # point at the end of the file, as every reader does
             lineno = max(1, len(_read_lines(path)))
             raise ClumpFileError("end of file and no spheres found (empty clump)", exc.source, lineno) from None
-        raise ClumpFileError(exc.reason, exc.source, lineno) from None
+        raise
     except OSError as exc:
         raise ClumpFileError(f"cannot read: {exc.strerror or exc}", str(path)) from None
     with _gc_paused():  # 10**5..10**6 new objects, none in a cycle: the collector would only rescan them
@@ -296,6 +295,7 @@ def read_yade(path, scale: float = 1.0) -> List[Clump]:
 def _clumps_of(tcs, stem, src) -> List[Clump]:
     """One Clump per clump of a parsed textClumps file, named STEM_ID (STEM_ID_lineN for a repeated id)."""
     starts, ids, lines = tcs.starts.tolist(), tcs.ids.tolist(), tcs.lines.tolist()
+    repeated = tcs.repeated.tolist()
     out, used = [], set()
     for k, cid in enumerate(ids):
         a, b = starts[k], starts[k + 1]
@@ -303,7 +303,7 @@ def _clumps_of(tcs, stem, src) -> List[Clump]:
         if name in used:  # an id that comes back after other ids starts a new clump (as in YADE)
             name = f"{name}_line{lines[a]}"
         used.add(name)
-        out.append(Clump(tcs.centers[a:b], tcs.radii[a:b], name, src, tuple(lines[a:b])))
+        out.append(Clump(tcs.centers[a:b], tcs.radii[a:b], name, src, tuple(lines[a:b]), cid, repeated[k]))
     return out
 
 

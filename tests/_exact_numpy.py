@@ -1,10 +1,10 @@
 """The numpy implementation of the exact method: a TEST ORACLE only (not used by the library).
 
-``method="exact"`` runs the compiled core (clumpprops/core/clumpprops.hpp).  This is the
-earlier, vectorised numpy implementation of the same mathematics with an independent
+``method="exact"`` runs the compiled core (clumpprops/core/clumpprops.hpp).  This is a
+vectorised numpy implementation of the same mathematics with an independent
 arc classification (per-arc sign tests instead of coverage depth); tests compare the
-core with it on thousands of random and near-degenerate clumps.  It also keeps the
-earlier form of rule S (touching circles: a sagitta threshold, where the core decides and
+core with it on thousands of random and near-degenerate clumps.  It also keeps
+another form of rule S (touching circles: a sagitta threshold, where the core decides and
 locates nearly touching crossings in double-double); the two differ on spheres through one
 point with nearly coplanar centres, which no test compares (docs/exact_method.md, 2a).
 
@@ -41,9 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._input import Spheres
-from ._pairs import overlapping_pairs
-from .pairwise import sphere_moments
+from clumpprops._input import Spheres
+from clumpprops._pairs import overlapping_pairs
+from clumpprops.pairwise import sphere_moments
 
 _FOUR_PI = 4.0 * np.pi
 # candidate poles: 6 axes, 12 edge and 8 corner directions of a cube, and 6 more
