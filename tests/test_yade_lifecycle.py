@@ -623,12 +623,12 @@ def test_text_clumps_matches_ymport_arguments(scene, tmp_path):
 
 
 def test_text_clumps_malformed_file_adds_nothing(scene, tmp_path):
-    from clumpprops.textclumps import TextClumpsError
+    from clumpprops.io import ClumpFileError
 
     f = tmp_path / "bad.txt"
     f.write_text("0 0 0 .1 0\n1 0 0 .1 1\n1 0 x .1 1\n")
     n = len(O.bodies)
-    with pytest.raises(TextClumpsError, match=r"bad.txt:3: z is not a number"):
+    with pytest.raises(ClumpFileError, match=r"bad.txt:3: z is not a number"):
         cy.text_clumps(str(f))
     assert len(O.bodies) == n
 

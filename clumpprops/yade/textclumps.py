@@ -15,7 +15,7 @@ def text_clumps(fileName, shift=None, discretization=0, orientation=None, scale=
     id column changes), same return value ``[(clump_id, [member_ids]), ...]`` and the clump's mask
     set to its first member's; ``**kw`` go to ``utils.sphere`` (material, color, mask, ...).
     The file is read by the project's own parser (:mod:`clumpprops.textclumps`), so a malformed
-    line raises :class:`~clumpprops.textclumps.TextClumpsError` with its line number before
+    line raises :class:`~clumpprops.io.ClumpFileError` with its line number before
     anything is added.  Mirrors ``ymport.textClumps``: ``fileName`` keeps YADE's camelCase name.
     """
     Y = _Y.load()
