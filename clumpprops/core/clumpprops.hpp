@@ -958,6 +958,10 @@ struct ExactWorkspace {
   std::vector<double> alpha;
   std::vector<int> order;
   std::vector<double> unique_c, unique_r;
+  std::vector<int> by_size;                     // moments_of_reaching_caps: caps by decreasing size,
+  std::vector<signed char> chosen;              // the subset's flags, its caps,
+  std::vector<Cap> subset;                      // and the caps reaching its exposed region
+  std::vector<std::tuple<int, int, int>> reach;
   Arrangement arr;
 };
 
@@ -1133,6 +1137,120 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
   return m;
 }
 
+// ------------------------------------------------------------------ caps that cannot reach the exposed region
+// A sphere with many caps (dense clumps: every neighbour cuts one) has an exposed region bounded by
+// a few of them; the others lie in the union of the rest and change nothing.  The region is found
+// from a subset S of the caps, the largest first: the arrangement of S gives the region E_S (which
+// contains the true region E) and its boundary arcs.  A cap outside S that keeps clear of every
+// boundary arc of E_S (by kCapClearance) and whose axis point lies in a cap of S (by kInsideCap)
+// lies outside E_S entirely; if every cap outside S does, E = E_S and the moments of E_S are the
+// sphere's.  Otherwise the caps that reach E_S join S (those covering most of its boundary first)
+// and the arrangement is computed again.  A cap is dropped only where the margins decide it, so
+// the result is the arrangement of all caps, to round-off (docs/exact_method.md, section 2).
+constexpr int kCoveredCapsAbove = 48;  // spheres with more caps than this go through the subset
+constexpr int kFirstCaps = 24;         // the size of the first subset
+constexpr double kCapClearance = 1e-9;  // f_j = u.n_j - h_j below -this on every arc: cap j is clear of it
+constexpr double kInsideCap = 1e-12;    // a point with f_k above this lies in cap k
+
+// The largest value of f_j(u) = u.n_j - h_j on one exposed arc, and whether the arc starts inside cap j.
+inline double max_on_arc(const Arrangement::Circle& ck, const Arrangement::Arc& arc, const Cap& cj, bool& starts_inside) {
+  const double M = ck.h * dot3(ck.n, cj.n) - cj.h;
+  const double A = ck.rho * dot3(ck.e1, cj.n), B = ck.rho * dot3(ck.e2, cj.n);
+  const double R = std::sqrt(A * A + B * B);
+  const double f1 = M + A * arc.c1 + B * arc.s1;
+  starts_inside = f1 > 0.0;
+  if (arc.L >= kTwoPi) return M + R;
+  double best = std::max(f1, M + A * arc.c2 + B * arc.s2);
+  if (R > 0.0) {  // the circle's point nearest n_j, if on the arc
+    const double cp = A / R, sp = B / R;
+    double t = std::atan2(arc.c1 * sp - arc.s1 * cp, arc.c1 * cp + arc.s1 * sp);
+    if (t < 0.0) t += kTwoPi;
+    if (t <= arc.L) best = M + R;
+  }
+  return best;
+}
+
+// Whether cap j can reach the exposed region of the arrangement (the caps of S, in arr); score: how
+// much of the region's boundary it covers (arcs it enters, arcs starting inside it).
+inline bool reaches_exposed_region(const Arrangement& arr, const Cap& cj, const Cap* subset, int Ks, int& score) {
+  score = 0;
+  if (arr.arcs.empty()) return false;  // nothing exposed
+  bool reaches = false;
+  for (const Arrangement::Arc& arc : arr.arcs) {
+    bool starts_inside = false;
+    const double f = max_on_arc(arr.C[arc.circle], arc, cj, starts_inside);
+    if (f > -kCapClearance) reaches = true;
+    score += (f > 0.0) + starts_inside;
+  }
+  if (reaches) return true;
+  // clear of the boundary: cap j lies inside E_S or outside it, as its axis point does
+  for (int k = 0; k < Ks; ++k)
+    if (dot3(cj.n, subset[k].n) - subset[k].h > kInsideCap) return false;
+  return true;
+}
+
+// The caps outside the subset (chosen) that reach its exposed region, in w.reach as (-score, size
+// rank, cap); false if there is none.
+inline bool caps_reaching_region(const Cap* caps, int K, const signed char* chosen, int Ks, ExactWorkspace& w) {
+  w.reach.clear();
+  for (int q = 0; q < K; ++q) {
+    const int k = w.by_size[q];
+    int score = 0;
+    if (!chosen[k] && reaches_exposed_region(w.arr, caps[k], w.subset.data(), Ks, score))
+      w.reach.push_back({-score, q, k});
+  }
+  return !w.reach.empty();
+}
+
+// Surface moments of one sphere from its K caps (K > kCoveredCapsAbove), computed on the subset of
+// the caps that reach the exposed region (above).  Returns false if the sphere is covered entirely.
+inline bool moments_of_reaching_caps(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& s,
+                                     ExactWorkspace& w) {
+  w.by_size.resize(K);  // caps by decreasing angular radius (increasing h)
+  for (int k = 0; k < K; ++k) w.by_size[k] = k;
+  std::sort(w.by_size.begin(), w.by_size.end(),
+            [&](int a, int b) { return caps[a].h < caps[b].h || (caps[a].h == caps[b].h && a < b); });
+  signed char* chosen = filled(w.chosen, K, static_cast<signed char>(0));
+  int n_chosen = std::min(K, kFirstCaps);
+  for (int q = 0; q < n_chosen; ++q) chosen[w.by_size[q]] = 1;
+  Arrangement& arr = w.arr;
+  arr.record_arcs = true;
+  for (;;) {
+    w.subset.clear();
+    for (int k = 0; k < K; ++k)
+      if (chosen[k]) w.subset.push_back(caps[k]);  // in the caps' order (by neighbour)
+    const int Ks = prune_caps(w.subset.data(), static_cast<int>(w.subset.size()), w);
+    if (Ks < 0) break;  // complementary caps: nothing exposed
+    arr.compute(w.subset.data(), Ks, centre, r, s);  // one cap: only its arc is used
+    if (Ks == 1) single_cap(w.subset[0].n, w.subset[0].h, w.subset[0].rho, centre, r, s);
+    if (!caps_reaching_region(caps, K, chosen, Ks, w)) {
+      arr.record_arcs = false;
+      return true;
+    }
+    // the caps covering most of the boundary first, then the larger; the subset grows by half at least
+    std::sort(w.reach.begin(), w.reach.end());
+    const int add = std::min(static_cast<int>(w.reach.size()), std::max(n_chosen / 2, kFirstCaps));
+    for (int t = 0; t < add; ++t) chosen[std::get<2>(w.reach[t])] = 1;
+    n_chosen += add;
+  }
+  arr.record_arcs = false;
+  return false;
+}
+
+// Surface moments of one sphere from its K >= 1 caps (compacted in place); false if the sphere is
+// covered entirely.
+inline bool exposed_region_moments(Cap* caps, int K, const double* centre, double r, SurfaceMoments& s,
+                                   ExactWorkspace& w) {
+  if (K > kCoveredCapsAbove) return moments_of_reaching_caps(caps, K, centre, r, s, w);
+  K = prune_caps(caps, K, w);
+  if (K < 0) return false;  // covered entirely by complementary caps
+  if (K == 1)
+    single_cap(caps[0].n, caps[0].h, caps[0].rho, centre, r, s);
+  else
+    w.arr.compute(caps, K, centre, r, s);
+  return true;
+}
+
 inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
   out.clear();
   if (drop_redundant(c, r, n, w)) {
@@ -1154,13 +1272,7 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
       add_ball(c + 3 * i, r[i], out);
       continue;
     }
-    K = prune_caps(caps, K, w);
-    if (K < 0) continue;  // covered entirely by complementary caps
-    if (K == 1)
-      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, r[i], s);
-    else
-      w.arr.compute(caps, K, c + 3 * i, r[i], s);
-    add_from_surface(c + 3 * i, r[i], s, out);
+    if (exposed_region_moments(caps, K, c + 3 * i, r[i], s, w)) add_from_surface(c + 3 * i, r[i], s, out);
   }
 }
 
