@@ -1153,7 +1153,8 @@ constexpr double kCapClearance = 1e-9;  // f_j = u.n_j - h_j below -this on ever
 constexpr double kInsideCap = 1e-12;    // a point with f_k above this lies in cap k
 
 // The largest value of f_j(u) = u.n_j - h_j on one exposed arc, and whether the arc starts inside cap j.
-inline double max_on_arc(const Arrangement::Circle& ck, const Arrangement::Arc& arc, const Cap& cj, bool& starts_inside) {
+inline double max_on_arc(const Arrangement::Circle& ck, const Arrangement::Arc& arc, const Cap& cj,
+                         bool& starts_inside) {
   const double M = ck.h * dot3(ck.n, cj.n) - cj.h;
   const double A = ck.rho * dot3(ck.e1, cj.n), B = ck.rho * dot3(ck.e2, cj.n);
   const double R = std::sqrt(A * A + B * B);
