@@ -1228,9 +1228,15 @@ inline bool moments_of_reaching_caps(const Cap* caps, int K, const double* centr
       arr.record_arcs = false;
       return true;
     }
-    // the caps covering most of the boundary first, then the larger; the subset grows by half at least
-    std::sort(w.reach.begin(), w.reach.end());
-    const int add = std::min(static_cast<int>(w.reach.size()), std::max(n_chosen / 2, kFirstCaps));
+    // where at least half of the other caps reach the region, all join (their circles bound it, as
+    // on a sphere studded with small ones); else those covering most of the boundary first, then
+    // the larger, the subset growing by half
+    const int n_reach = static_cast<int>(w.reach.size());
+    int add = n_reach;
+    if (2 * n_reach < K - n_chosen) {
+      std::sort(w.reach.begin(), w.reach.end());
+      add = std::min(n_reach, std::max(n_chosen / 2, kFirstCaps));
+    }
     for (int t = 0; t < add; ++t) chosen[std::get<2>(w.reach[t])] = 1;
     n_chosen += add;
   }
