@@ -1,6 +1,6 @@
 """Dense clumps in the compiled core: spheres with more caps than ``kCoveredCapsAbove`` (read from
 clumpprops/core/clumpprops.hpp) are computed on the subset of their caps that reaches the exposed
-region.  Checked against the numpy oracle (``clumpprops._exact_numpy``, every cap in the
+region.  Checked against the numpy oracle (``tests/_exact_numpy.py``, every cap in the
 arrangement) and against exact geometric facts of the union."""
 from __future__ import annotations
 
@@ -12,8 +12,10 @@ import pytest
 
 import clumpprops as cp
 import clumpprops.core  # noqa: F401  (cp.core)
-from clumpprops import _exact_numpy, _input
+from clumpprops import _input
 from clumpprops._properties import finish
+
+import _exact_numpy
 
 HPP = Path(cp.core.__file__).resolve().parent / "clumpprops.hpp"
 CAPS_ABOVE = int(re.search(r"kCoveredCapsAbove = (\d+);", HPP.read_text()).group(1))
