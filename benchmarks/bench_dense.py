@@ -1,6 +1,6 @@
 """Dense clumps: time and peak memory of the exact method where every sphere overlaps every other.
 
-Run:  OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_dense [--before DIR] [--shell 100,200,400]
+Run:  OMP_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_dense [--before DIR] [--shell 100,400,1000]
                                                                    [--identical 1000,10000,100000]
 
 Cases (each in its own process, so that its peak memory is its own):
@@ -68,7 +68,7 @@ def fmt(res):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", help="directory of another _core build, run side by side")
-    ap.add_argument("--shell", default="100,200,400")
+    ap.add_argument("--shell", default="100,400,1000")
     ap.add_argument("--identical", default="1000,10000,100000")
     args = ap.parse_args()
     for kind, sizes in (("identical", args.identical), ("shell", args.shell)):

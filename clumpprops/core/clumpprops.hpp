@@ -462,6 +462,12 @@ class Arrangement {
     double c, s;  // cos t, sin t of the point in the circle's own frame
     int type;     // +1: the circle enters the other cap here, -1: leaves it
   };
+  // An exposed arc of one circle: from (c1, s1) = (cos t1, sin t1) counter-clockwise over length L
+  // (the whole circle: L = 2 pi), in the circle's frame
+  struct Arc {
+    int circle;
+    double c1, s1, c2, s2, L;
+  };
 
   std::vector<Circle> C;
   std::vector<double> M;  // K x K, [k*K + j]: mean of f_kj(t) = u_k(t).n_j - h_j = M + A cos t + B sin t
@@ -469,6 +475,8 @@ class Arrangement {
   std::vector<Event> ev;  // circle k's events at [k * 2(K-1), k * 2(K-1) + nev[k])
   std::vector<int> nev;
   std::vector<int> enter_gt_leave;  // per circle: crossed caps whose entry key > exit key (inside at t = 0)
+  bool record_arcs = false;  // keep the exposed arcs of each compute in `arcs`
+  std::vector<Arc> arcs;
 
   static void basis(const double* n, double* e1, double* e2) {
     double ax[3] = {1.0, 0.0, 0.0};
@@ -495,7 +503,27 @@ class Arrangement {
   static bool near_touching(const Circle& a, const Circle& b, double s, double& ca, double& sa);
 
  private:
+  // trigonometric sums over the exposed arcs of one circle (t: the circle's own angle), and the
+  // pole's atan2 part dG and sign sg of the area form
+  struct ArcSums {
+    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, S3 = 0, C3 = 0;  // S3, C3: sums of sin^3, cos^3 differences
+    double dG = 0, sg = 0;
+  };
+  // the sums over all circles that make the surface moments
+  struct Totals {
+    double area_U = 0.0;
+    bool in_U = false;
+    double J1[3] = {0, 0, 0}, J2c[3] = {0, 0, 0}, QS[9] = {0};
+  };
+  void load_circles(const Cap* caps, int K);
+  void find_crossings(int K);
+  void intersect_pair(int k, int j, int K);
+  void add_crossing_events(int ia, int ib, double a, double b, double Ra, double ca, double sa, int K);
   void choose_pole(int K, double* q);
+  bool covered_by_uncrossed_cap(int k, int K) const;
+  bool exposed_arc_sums(int k, int K, const double* q, ArcSums& s);
+  void add_circle_moments(const Circle& ck, const ArcSums& s, const double* centre, double r, Totals& t) const;
+  static void finish(const Totals& t, const double* centre, double r, SurfaceMoments& out);
 };
 
 inline bool Arrangement::near_touching(const Circle& a, const Circle& b, double s, double& ca, double& sa) {
@@ -608,7 +636,29 @@ inline void Arrangement::choose_pole(int K, double* q) {
   q[2] = cand[ib][2];
 }
 
+// The steps of compute: the circles (load_circles), their crossing points (find_crossings), the pole of
+// the area form (choose_pole), then per circle its exposed arcs (covered_by_uncrossed_cap,
+// exposed_arc_sums) and their moments (add_circle_moments), summed into the surface moments (finish).
 inline void Arrangement::compute(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& out) {
+  load_circles(caps, K);
+  find_crossings(K);
+  if (record_arcs) arcs.clear();
+  double q[3];
+  choose_pole(K, q);
+  Totals t;
+  for (int k = 0; k < K; ++k) {
+    const Circle& ck = C[k];
+    if (-dot3(q, ck.n) > ck.h) t.in_U = true;
+    if (covered_by_uncrossed_cap(k, K)) continue;
+    ArcSums s;
+    if (!exposed_arc_sums(k, K, q, s)) continue;
+    add_circle_moments(ck, s, centre, r, t);
+  }
+  finish(t, centre, r, out);
+}
+
+// the circles of the caps, with 1 - h, 1 + h without cancellation and a frame (n, e1, e2) each
+inline void Arrangement::load_circles(const Cap* caps, int K) {
   if (C.size() < static_cast<std::size_t>(K)) C.resize(K);  // grows only: no per-call construction
   for (int k = 0; k < K; ++k) {
     Circle& c = C[k];
@@ -620,266 +670,283 @@ inline void Arrangement::compute(const Cap* caps, int K, const double* centre, d
     c.op = c.h < 0.0 ? c.rho * c.rho / (1.0 - c.h) : 1.0 + c.h;
     basis(c.n, c.e1, c.e2);
   }
+}
+
+// Every pair of circles once (k < j): the means M, the crossing and coincidence flags, the events.
+inline void Arrangement::find_crossings(int K) {
   const std::size_t KK = static_cast<std::size_t>(K) * K;
   const int stride = 2 * (K - 1);  // at most two events per other circle
   if (M.size() < KK) M.resize(KK);
-  signed char* cross_ = filled(cross, KK, static_cast<signed char>(0));
-  signed char* coinc_ = filled(coinc, KK, static_cast<signed char>(0));
+  filled(cross, KK, static_cast<signed char>(0));
+  filled(coinc, KK, static_cast<signed char>(0));
   if (ev.size() < static_cast<std::size_t>(K) * stride) ev.resize(static_cast<std::size_t>(K) * stride);
-  int* nev_ = filled(nev, K, 0);
-  int* egl = filled(enter_gt_leave, K, 0);
-  double* M_ = M.data();
-  // every pair of circles once (k < j): the means M_kj, M_jk of f_kj = M_kj + A cos t + B sin t (on
-  // k, in its frame) and of f_jk, without cancellation (docs/exact_method.md, section 2a): with
-  // s = sgn(n_k.n_j) and d = n_j - s n_k (small for nearly (anti)parallel axes, exact to an ulp),
-  //   A_kj, B_kj = rho_k e1_k.d, rho_k e2_k.d   (e1, e2 are orthogonal to n_k: the s n_k part is 0)
-  //   M_kj = h_k g - h_j = (s h_k - h_j) - s h_k |d|^2/2,   g = s (1 - |d|^2/2),
-  // s h_k - h_j from 1 - h and 1 + h (om, op: relative accuracy) where it cancels; the other
-  // orientation uses n_k - s n_j = -s d and s h_j - h_k = -s (s h_k - h_j), both exact.  The
-  // dot-product form lost ~1e-16 absolute in M and A, B, i.e. a relative 1e-16 / |n_k -+ n_j|.
-  // Each crossing is computed once, on the circle of the pair with the smaller radius rho (the
-  // lower one on a tie: its position error ~ rho eps / sin(alpha), rho sin(alpha) the half-chord
-  // shared by both circles, is the smaller one), and located on the other from the same point.
-  for (int k = 0; k < K; ++k) {
-    const Circle& ck = C[k];
-    for (int j = k + 1; j < K; ++j) {
-      const Circle& cj = C[j];
-      const std::size_t kj = static_cast<std::size_t>(k) * K + j, jk = static_cast<std::size_t>(j) * K + k;
-      const double g = dot3(ck.n, cj.n);
-      const double s = g >= 0.0 ? 1.0 : -1.0;
-      const double d[3] = {cj.n[0] - s * ck.n[0], cj.n[1] - s * ck.n[1], cj.n[2] - s * ck.n[2]};
-      const double half_d2 = 0.5 * dot3(d, d);
-      // s h_k - h_j = a - b (a = s h_k, b = h_j): (1 - b) - (1 - a) where a, b > 0, (1 + a) - (1 + b) where
-      // a, b < 0, a - b otherwise (no cancellation there); the oracle's values, without a branch on s
-      const double a_ = s * ck.h, b_ = cj.h;
-      const double u = 0.5 + 0.5 * s;  // 1 or 0: 1 - a = om_k (s = 1) or op_k (s = -1), 1 + a the other
-      const double one_m_a = u * ck.om + (1.0 - u) * ck.op, one_p_a = u * ck.op + (1.0 - u) * ck.om;
-      const double dpp = cj.om - one_m_a, dnn = one_p_a - cj.op, dmix = a_ - b_;
-      const double dh = (a_ > 0.0 && b_ > 0.0) ? dpp : ((a_ < 0.0 && b_ < 0.0) ? dnn : dmix);
-      const double mk = dh - s * ck.h * half_d2, mj = -s * dh - s * cj.h * half_d2;
-      M_[kj] = mk;
-      M_[jk] = mj;
-      if (g > 0.0 && std::fabs(mk) <= kCoincident) {
-        const double ak = ck.rho * dot3(ck.e1, d), bk = ck.rho * dot3(ck.e2, d);
-        if (std::sqrt(ak * ak + bk * bk) <= kCoincident) {
-          coinc_[kj] = coinc_[jk] = 1;  // one circle, caps on the same side
-          continue;
-        }
-      }
-      // computed on circle a (the smaller), located on circle b; d_ab = sd * d
-      const bool on_j = cj.rho < ck.rho;
-      const int ia = on_j ? j : k, ib = on_j ? k : j;
-      const Circle& ca_c = on_j ? cj : ck;
-      const Circle& cb_c = on_j ? ck : cj;
-      const double sd = on_j ? -s : 1.0;
-      const double ma = on_j ? mj : mk;
-      const double a = sd * (ca_c.rho * dot3(ca_c.e1, d)), b = sd * (ca_c.rho * dot3(ca_c.e2, d));
-      const double Ra = std::sqrt(a * a + b * b);
-      if (!(Ra > 0.0)) continue;
-      // f_ab > 0 (inside cap b) for |t - phi| < alpha, cos alpha = -M / R.  Nearly touching circles
-      // (|sin^2 alpha| small, either side of 1 in |cos alpha|): the ~1e-16 error of cos alpha in double is
-      // an error ~1e-16 / sin(alpha) in alpha, so the crossing decision and the near-concurrent crossing
-      // points of three such circles would be inconsistent; both come from double-double instead
-      double ca = -ma / Ra;
-      const double sa2 = (1.0 - ca) * (1.0 + ca);
-      double sa = 0.0;
-      if (std::fabs(sa2) < kNearTouchingSin2) {
-        if (!near_touching(ca_c, cb_c, s, ca, sa)) continue;
-      } else {
-        if (!(std::fabs(ca) < 1.0)) continue;
-        sa = std::sqrt(sa2);
-      }
-      // rule S: circles that do not cross, or whose two crossing points are at most 2 kTouchingChord
-      // apart, touch; each is then covered by the other cap or not, by the sign of M (|M| ~ R there)
-      if (ca_c.rho * sa <= kTouchingChord) continue;
-      cross_[kj] = cross_[jk] = 1;
-      const double cp = a / Ra, sp = b / Ra;
-      // leave at phi + ac, enter at phi - ac (f_ab = M + R cos(t - phi) decreases through 0 at phi + ac)
-      const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
-      const double ce = cp * ca + sp * sa, se = sp * ca - cp * sa;
-      double Pl[3], Pe[3];
-      for (int x = 0; x < 3; ++x) {
-        Pl[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (cl * ca_c.e1[x] + sl * ca_c.e2[x]);
-        Pe[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (ce * ca_c.e1[x] + se * ca_c.e2[x]);
-      }
-      const double kl = diamond(cl, sl), ke = diamond(ce, se);
-      Event* eva = ev.data() + static_cast<std::size_t>(ia) * stride;
-      eva[nev_[ia]++] = {kl, cl, sl, -1};
-      eva[nev_[ia]++] = {ke, ce, se, +1};
-      if (ke > kl) ++egl[ia];
-      // on b: where a leaves cap b, b enters cap a, and vice versa
-      double xl = dot3(Pl, cb_c.e1), yl = dot3(Pl, cb_c.e2), xe = dot3(Pe, cb_c.e1), ye = dot3(Pe, cb_c.e2);
-      const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
-      if (nl > 0.0) {
-        xl /= nl;
-        yl /= nl;
-      }
-      if (ne > 0.0) {
-        xe /= ne;
-        ye /= ne;
-      }
-      const double jl = diamond(xl, yl), je = diamond(xe, ye);
-      Event* evb = ev.data() + static_cast<std::size_t>(ib) * stride;
-      evb[nev_[ib]++] = {jl, xl, yl, +1};
-      evb[nev_[ib]++] = {je, xe, ye, -1};
-      if (jl > je) ++egl[ib];
-    }
-  }
-  // pole for the area form
-  double q[3];
-  choose_pole(K, q);
-  double area_U = 0.0;
-  bool in_U = false;
-  double J1[3] = {0, 0, 0}, J2c[3] = {0, 0, 0}, QS[9] = {0};
-  const double r6 = r / 6.0;
-  for (int k = 0; k < K; ++k) {
-    const Circle& ck = C[k];
-    if (-dot3(q, ck.n) > ck.h) in_U = true;
-    // caps that do not cross circle k cover all of it or none of it
-    bool covered = false;
-    for (int j = 0; j < K && !covered; ++j) {
-      if (j == k) continue;
-      const std::size_t kj = static_cast<std::size_t>(k) * K + j;
-      if (cross_[kj]) continue;
-      if (coinc_[kj])
-        covered = C[j].rank < ck.rank;  // of one circle, the lower-ranked cap bounds the region
-      else
-        covered = M_[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
-    }
-    if (covered) continue;
-    // exposed arcs: depth of coverage by the crossed caps, +1 on entering a cap, -1 on leaving
-    Event* E = ev.data() + static_cast<std::size_t>(k) * stride;
-    const int P = nev_[k];
-    double Dt = 0, Ic = 0, Is = 0, S2 = 0, Ics = 0, S3 = 0, C3 = 0;  // S3, C3: sums of sin^3, cos^3 differences
-    double dG = 0;  // sum over arcs of the atan2 part of G(t2) - G(t1)
-    // pole in the circle's frame
-    const double qn = dot3(q, ck.n), qe1 = dot3(q, ck.e1), qe2 = dot3(q, ck.e2);
-    const double Dd = 1.0 + ck.h * qn;
-    const double qh = std::sqrt(qe1 * qe1 + qe2 * qe2);
-    const double Rr = ck.rho * qh;
-    const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
-    const double sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
-    const double iqh = qh > 0.0 ? 1.0 / qh : 0.0;
-    const double cdl = qh > 0.0 ? qe1 * iqh : 1.0, sdl = qe2 * iqh;
-    // G(t) - (t - dl)/2 = atan2(Y, X), Y = (k - 1) sin(t - dl), X = (1 + k) + (1 - k) cos(t - dl)
-    auto GYX = [&](double c, double s, double& Y, double& X) {
-      const double sp = s * cdl - c * sdl, cpp = c * cdl + s * sdl;
-      Y = (kk - 1.0) * sp;
-      X = (1.0 + kk) + (1.0 - kk) * cpp;
-    };
-    if (P == 0) {
-      Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
-      dG = 0.0;
-    } else {
-      auto by_key = [](const Event& x, const Event& y) { return x.key < y.key || (x.key == y.key && x.type > y.type); };
-      // insertion sort for the usual few events, O(P log P) for the many of dense clumps (where
-      // it was O(P^2) per circle, O(K^3) per sphere)
-      if (P <= kSmallSort)
-        small_sort(E, P, by_key);
-      else
-        std::sort(E, E + P, by_key);
-      int depth = egl[k];
-      for (int p = 0; p < P; ++p) {
-        depth += E[p].type;
-        if (depth != 0) continue;
-        const bool wrap = p + 1 >= P;
-        const Event& e1 = E[p];
-        const Event& e2 = E[wrap ? 0 : p + 1];
-        const double c1 = e1.c, s1 = e1.s, c2 = e2.c, s2 = e2.s;
-        // arc length t2 - t1 in [0, 2 pi) from one atan2 of the two end points, its branch from the
-        // keys: a key difference of 1 is exactly a quarter turn (diamond), so a difference below 1
-        // is an arc below pi, above 3 one above pi (the ambiguous lengths near 0 and 2 pi are
-        // decided by the sorted order, as the depth walk is)
-        double L = std::atan2(c1 * s2 - s1 * c2, c1 * c2 + s1 * s2);
-        const double Lkey = (e2.key - e1.key) + (wrap ? 4.0 : 0.0);
-        if (Lkey > 3.0 || (L < 0.0 && Lkey >= 1.0)) L += kTwoPi;
-        Dt += L;
-        Ic += s2 - s1;
-        Is += c1 - c2;
-        S2 += 2.0 * (s2 * c2 - s1 * c1);
-        Ics += 0.5 * (s2 * s2 - s1 * s1);
-        S3 += s2 * s2 * s2 - s1 * s1 * s1;
-        C3 += c2 * c2 * c2 - c1 * c1 * c1;
-        // atan2(Y2, X2) - atan2(Y1, X1) in one atan2: with X1, X2 > 0 (k > 0: X >= 2 min(1, k)) both
-        // lie in (-pi/2, pi/2), so their difference is in (-pi, pi) and needs no branch
-        double Y1, X1, Y2, X2;
-        GYX(c1, s1, Y1, X1);
-        GYX(c2, s2, Y2, X2);
-        if (X1 > 0.0 && X2 > 0.0)
-          dG += std::atan2(Y2 * X1 - X2 * Y1, X1 * X2 + Y1 * Y2);
-        else
-          dG += std::atan2(Y2, X2) - std::atan2(Y1, X1);
-      }
-      if (Dt == 0.0 && dG == 0.0) continue;
-    }
-    const double Icc = 0.5 * Dt + 0.25 * S2, Iss = 0.5 * Dt - 0.25 * S2;
-    // cubic moments: int cos^3 = [sin - sin^3/3], int sin^3 = [-cos + cos^3/3], int cos^2 sin = [-cos^3/3],
-    // int cos sin^2 = [sin^3/3] over the arcs
-    const double S3t = S3 / 3.0, C3t = C3 / 3.0;
-    const double Iccc = Ic - S3t, Isss = Is + C3t, Iccs = -C3t, Icss = S3t;
-    // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
-    area_U += -ck.h * Dt + 2.0 * sg * (0.5 * Dt + dG);
-    // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
-    // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho), W_pq.. = int w_p w_q .. dt
-    // over the exposed arcs.  Then
-    //   J1 = sum_p W_p a_p E_p,   J2 + J2^T = sum_xy W_xy s_xy E_x (x) E_y,  s_xy = a_x b_y + a_y b_x,
-    // and m3 enters only contracted with the sphere centre c (local coordinates cl):
-    //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,  Lk_xy = s_xy T_xy + b_x b_y U_xy,
-    //   T_xy = sum_r W_xyr b_r cl_r = h Z + rho V,  U_xy = sum_p a_p cl_p W_pxy = -rho^2 Z + h rho V,
-    //   Z_xy = cl_0 W_xy,  V_xy = cl_1 W_xy1 + cl_2 W_xy2.
-    // Only r m2 + m3c and m2 c are needed (add_from_surface), so one symmetric matrix
-    // Lc = r/6 (J2 + J2^T) + Lk/12 (local) is rotated per circle.
-    const double h = ck.h, rho = ck.rho;
-    const double* n = ck.n;
-    const double* e1 = ck.e1;
-    const double* e2 = ck.e2;
-    const double cl0 = dot3(n, centre), cl1 = dot3(e1, centre), cl2 = dot3(e2, centre);
-    // the six entries xy = 00, 01, 02, 11, 12, 22
-    const double W2[6] = {Dt, Ic, Is, Icc, Ics, Iss};
-    const double W31[6] = {Ic, Icc, Ics, Iccc, Iccs, Icss};  // W_xy1
-    const double W32[6] = {Is, Ics, Iss, Iccs, Icss, Isss};  // W_xy2
-    const double s01 = rho * (h * h - rho * rho), s11 = 2.0 * h * rho * rho;
-    const double sv[6] = {-2.0 * rho * rho * h, s01, s01, s11, s11, s11};
-    const double hr = h * rho, rr = rho * rho;
-    const double bb[6] = {h * h, hr, hr, rr, rr, rr};
-    double L2[6], Lc[6];
-    for (int e = 0; e < 6; ++e) {
-      const double Z = cl0 * W2[e], V = cl1 * W31[e] + cl2 * W32[e];
-      L2[e] = W2[e] * sv[e];
-      Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) * (1.0 / 12.0);
-    }
-    // (J2 + J2^T) c = sum_x v2_x E_x, v2 = L2 cl;  J1
-    const double v20 = L2[0] * cl0 + L2[1] * cl1 + L2[2] * cl2;
-    const double v21 = L2[1] * cl0 + L2[3] * cl1 + L2[4] * cl2;
-    const double v22 = L2[2] * cl0 + L2[4] * cl1 + L2[5] * cl2;
-    const double j0 = -(rr * Dt), j1 = hr * Ic, j2 = hr * Is;
-    for (int x = 0; x < 3; ++x) {
-      J1[x] += j0 * n[x] + j1 * e1[x] + j2 * e2[x];
-      J2c[x] += v20 * n[x] + v21 * e1[x] + v22 * e2[x];
-    }
-    // rotate Lc to the sphere's axes: sum_pq Lc_pq E_p E_q^T (upper triangle)
-    double RC0[3], RC1[3], RC2[3];
-    for (int j = 0; j < 3; ++j) {
-      RC0[j] = Lc[0] * n[j] + Lc[1] * e1[j] + Lc[2] * e2[j];
-      RC1[j] = Lc[1] * n[j] + Lc[3] * e1[j] + Lc[4] * e2[j];
-      RC2[j] = Lc[2] * n[j] + Lc[4] * e1[j] + Lc[5] * e2[j];
-    }
-    for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j) QS[3 * i + j] += n[i] * RC0[j] + e1[i] * RC1[j] + e2[i] * RC2[j];
-  }
-  const double a = kFourPi - (area_U + (in_U ? kFourPi : 0.0));
-  out.a = a;
-  for (int x = 0; x < 3; ++x) out.m1[x] = 0.5 * J1[x];
-  // m2 c = a c / 3 + (J2 + J2^T) c / 6;  r m2 + m3c with m3 c = [sym(J3) + T(J1)] c / 12,
-  // T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
-  for (int x = 0; x < 3; ++x) out.m2c[x] = a / 3.0 * centre[x] + J2c[x] / 6.0;
-  const double J1c = dot3(J1, centre);
-  for (int x = 0; x < 3; ++x)
-    for (int y = x; y < 3; ++y)
-      out.Qs[3 * x + y] = out.Qs[3 * y + x] = QS[3 * x + y] + (x == y ? r * a / 3.0 + J1c / 12.0 : 0.0) +
-                                              (centre[x] * J1[y] + centre[y] * J1[x]) / 12.0;
+  filled(nev, K, 0);
+  filled(enter_gt_leave, K, 0);
+  for (int k = 0; k < K; ++k)
+    for (int j = k + 1; j < K; ++j) intersect_pair(k, j, K);
 }
 
+// One pair k < j: the means M_kj, M_jk of f_kj = M_kj + A cos t + B sin t (on k, in its frame) and of
+// f_jk, without cancellation (docs/exact_method.md, section 2a): with s = sgn(n_k.n_j) and
+// d = n_j - s n_k (small for nearly (anti)parallel axes, exact to an ulp),
+//   A_kj, B_kj = rho_k e1_k.d, rho_k e2_k.d   (e1, e2 are orthogonal to n_k: the s n_k part is 0)
+//   M_kj = h_k g - h_j = (s h_k - h_j) - s h_k |d|^2/2,   g = s (1 - |d|^2/2),
+// s h_k - h_j from 1 - h and 1 + h (om, op: relative accuracy) where it cancels; the other
+// orientation uses n_k - s n_j = -s d and s h_j - h_k = -s (s h_k - h_j), both exact.  The
+// dot-product form lost ~1e-16 absolute in M and A, B, i.e. a relative 1e-16 / |n_k -+ n_j|.
+// Each crossing is computed once, on the circle of the pair with the smaller radius rho (the
+// lower one on a tie: its position error ~ rho eps / sin(alpha), rho sin(alpha) the half-chord
+// shared by both circles, is the smaller one), and located on the other from the same point.
+inline void Arrangement::intersect_pair(int k, int j, int K) {
+  const Circle& ck = C[k];
+  const Circle& cj = C[j];
+  const std::size_t kj = static_cast<std::size_t>(k) * K + j, jk = static_cast<std::size_t>(j) * K + k;
+  const double g = dot3(ck.n, cj.n);
+  const double s = g >= 0.0 ? 1.0 : -1.0;
+  const double d[3] = {cj.n[0] - s * ck.n[0], cj.n[1] - s * ck.n[1], cj.n[2] - s * ck.n[2]};
+  const double half_d2 = 0.5 * dot3(d, d);
+  // s h_k - h_j = a - b (a = s h_k, b = h_j): (1 - b) - (1 - a) where a, b > 0, (1 + a) - (1 + b) where
+  // a, b < 0, a - b otherwise (no cancellation there); the oracle's values, without a branch on s
+  const double a_ = s * ck.h, b_ = cj.h;
+  const double u = 0.5 + 0.5 * s;  // 1 or 0: 1 - a = om_k (s = 1) or op_k (s = -1), 1 + a the other
+  const double one_m_a = u * ck.om + (1.0 - u) * ck.op, one_p_a = u * ck.op + (1.0 - u) * ck.om;
+  const double dpp = cj.om - one_m_a, dnn = one_p_a - cj.op, dmix = a_ - b_;
+  const double dh = (a_ > 0.0 && b_ > 0.0) ? dpp : ((a_ < 0.0 && b_ < 0.0) ? dnn : dmix);
+  const double mk = dh - s * ck.h * half_d2, mj = -s * dh - s * cj.h * half_d2;
+  M[kj] = mk;
+  M[jk] = mj;
+  if (g > 0.0 && std::fabs(mk) <= kCoincident) {
+    const double ak = ck.rho * dot3(ck.e1, d), bk = ck.rho * dot3(ck.e2, d);
+    if (std::sqrt(ak * ak + bk * bk) <= kCoincident) {
+      coinc[kj] = coinc[jk] = 1;  // one circle, caps on the same side
+      return;
+    }
+  }
+  // computed on circle a (the smaller), located on circle b; d_ab = sd * d
+  const bool on_j = cj.rho < ck.rho;
+  const Circle& ca_c = on_j ? cj : ck;
+  const Circle& cb_c = on_j ? ck : cj;
+  const double sd = on_j ? -s : 1.0;
+  const double ma = on_j ? mj : mk;
+  const double a = sd * (ca_c.rho * dot3(ca_c.e1, d)), b = sd * (ca_c.rho * dot3(ca_c.e2, d));
+  const double Ra = std::sqrt(a * a + b * b);
+  if (!(Ra > 0.0)) return;
+  // f_ab > 0 (inside cap b) for |t - phi| < alpha, cos alpha = -M / R.  Nearly touching circles
+  // (|sin^2 alpha| small, either side of 1 in |cos alpha|): the ~1e-16 error of cos alpha in double is
+  // an error ~1e-16 / sin(alpha) in alpha, so the crossing decision and the near-concurrent crossing
+  // points of three such circles would be inconsistent; both come from double-double instead
+  double ca = -ma / Ra;
+  const double sa2 = (1.0 - ca) * (1.0 + ca);
+  double sa = 0.0;
+  if (std::fabs(sa2) < kNearTouchingSin2) {
+    if (!near_touching(ca_c, cb_c, s, ca, sa)) return;
+  } else {
+    if (!(std::fabs(ca) < 1.0)) return;
+    sa = std::sqrt(sa2);
+  }
+  // rule S: circles that do not cross, or whose two crossing points are at most 2 kTouchingChord
+  // apart, touch; each is then covered by the other cap or not, by the sign of M (|M| ~ R there)
+  if (ca_c.rho * sa <= kTouchingChord) return;
+  cross[kj] = cross[jk] = 1;
+  add_crossing_events(on_j ? j : k, on_j ? k : j, a, b, Ra, ca, sa, K);
+}
+
+// The two crossing points of circle ia (centre direction phi = atan2(b, a) of cap ib seen on ia,
+// half-angle cos, sin = ca, sa) as events on ia, and the same points located on circle ib.
+inline void Arrangement::add_crossing_events(int ia, int ib, double a, double b, double Ra, double ca, double sa,
+                                             int K) {
+  const Circle& ca_c = C[ia];
+  const Circle& cb_c = C[ib];
+  const int stride = 2 * (K - 1);
+  const double cp = a / Ra, sp = b / Ra;
+  // leave at phi + ac, enter at phi - ac (f_ab = M + R cos(t - phi) decreases through 0 at phi + ac)
+  const double cl = cp * ca - sp * sa, sl = sp * ca + cp * sa;
+  const double ce = cp * ca + sp * sa, se = sp * ca - cp * sa;
+  double Pl[3], Pe[3];
+  for (int x = 0; x < 3; ++x) {
+    Pl[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (cl * ca_c.e1[x] + sl * ca_c.e2[x]);
+    Pe[x] = ca_c.h * ca_c.n[x] + ca_c.rho * (ce * ca_c.e1[x] + se * ca_c.e2[x]);
+  }
+  const double kl = diamond(cl, sl), ke = diamond(ce, se);
+  Event* eva = ev.data() + static_cast<std::size_t>(ia) * stride;
+  eva[nev[ia]++] = {kl, cl, sl, -1};
+  eva[nev[ia]++] = {ke, ce, se, +1};
+  if (ke > kl) ++enter_gt_leave[ia];
+  // on b: where a leaves cap b, b enters cap a, and vice versa
+  double xl = dot3(Pl, cb_c.e1), yl = dot3(Pl, cb_c.e2), xe = dot3(Pe, cb_c.e1), ye = dot3(Pe, cb_c.e2);
+  const double nl = std::sqrt(xl * xl + yl * yl), ne = std::sqrt(xe * xe + ye * ye);
+  if (nl > 0.0) {
+    xl /= nl;
+    yl /= nl;
+  }
+  if (ne > 0.0) {
+    xe /= ne;
+    ye /= ne;
+  }
+  const double jl = diamond(xl, yl), je = diamond(xe, ye);
+  Event* evb = ev.data() + static_cast<std::size_t>(ib) * stride;
+  evb[nev[ib]++] = {jl, xl, yl, +1};
+  evb[nev[ib]++] = {je, xe, ye, -1};
+  if (jl > je) ++enter_gt_leave[ib];
+}
+
+// caps that do not cross circle k cover all of it or none of it
+inline bool Arrangement::covered_by_uncrossed_cap(int k, int K) const {
+  for (int j = 0; j < K; ++j) {
+    if (j == k) continue;
+    const std::size_t kj = static_cast<std::size_t>(k) * K + j;
+    if (cross[kj]) continue;
+    const bool covered = coinc[kj] ? C[j].rank < C[k].rank  // of one circle, the lower-ranked cap bounds the region
+                                   : M[kj] > 0.0;  // f_kj keeps its sign on the circle: the sign of its mean
+    if (covered) return true;
+  }
+  return false;
+}
+
+// The exposed arcs of circle k (depth of coverage by the crossed caps: +1 on entering a cap, -1 on
+// leaving) and their sums; false if none of the circle is exposed.
+inline bool Arrangement::exposed_arc_sums(int k, int K, const double* q, ArcSums& s) {
+  const Circle& ck = C[k];
+  Event* E = ev.data() + static_cast<std::size_t>(k) * (2 * (K - 1));
+  const int P = nev[k];
+  // pole in the circle's frame
+  const double qn = dot3(q, ck.n), qe1 = dot3(q, ck.e1), qe2 = dot3(q, ck.e2);
+  const double Dd = 1.0 + ck.h * qn;
+  const double qh = std::sqrt(qe1 * qe1 + qe2 * qe2);
+  const double Rr = ck.rho * qh;
+  const double kk = std::fabs(ck.h + qn) / (Dd + Rr);
+  s.sg = (ck.h + qn > 0.0) ? 1.0 : ((ck.h + qn < 0.0) ? -1.0 : 0.0);
+  const double iqh = qh > 0.0 ? 1.0 / qh : 0.0;
+  const double cdl = qh > 0.0 ? qe1 * iqh : 1.0, sdl = qe2 * iqh;
+  // G(t) - (t - dl)/2 = atan2(Y, X), Y = (k - 1) sin(t - dl), X = (1 + k) + (1 - k) cos(t - dl)
+  auto GYX = [&](double c, double sn, double& Y, double& X) {
+    const double sp = sn * cdl - c * sdl, cpp = c * cdl + sn * sdl;
+    Y = (kk - 1.0) * sp;
+    X = (1.0 + kk) + (1.0 - kk) * cpp;
+  };
+  if (P == 0) {
+    s.Dt = kTwoPi;  // the full circle: every trigonometric moment but the constant vanishes
+    s.dG = 0.0;
+    if (record_arcs) arcs.push_back({k, 1.0, 0.0, 1.0, 0.0, kTwoPi});
+    return true;
+  }
+  auto by_key = [](const Event& x, const Event& y) { return x.key < y.key || (x.key == y.key && x.type > y.type); };
+  // insertion sort for the usual few events, O(P log P) for the many of dense clumps
+  if (P <= kSmallSort)
+    small_sort(E, P, by_key);
+  else
+    std::sort(E, E + P, by_key);
+  int depth = enter_gt_leave[k];
+  for (int p = 0; p < P; ++p) {
+    depth += E[p].type;
+    if (depth != 0) continue;
+    const bool wrap = p + 1 >= P;
+    const Event& e1 = E[p];
+    const Event& e2 = E[wrap ? 0 : p + 1];
+    const double c1 = e1.c, s1 = e1.s, c2 = e2.c, s2 = e2.s;
+    // arc length t2 - t1 in [0, 2 pi) from one atan2 of the two end points, its branch from the
+    // keys: a key difference of 1 is exactly a quarter turn (diamond), so a difference below 1
+    // is an arc below pi, above 3 one above pi (the ambiguous lengths near 0 and 2 pi are
+    // decided by the sorted order, as the depth walk is)
+    double L = std::atan2(c1 * s2 - s1 * c2, c1 * c2 + s1 * s2);
+    const double Lkey = (e2.key - e1.key) + (wrap ? 4.0 : 0.0);
+    if (Lkey > 3.0 || (L < 0.0 && Lkey >= 1.0)) L += kTwoPi;
+    if (record_arcs) arcs.push_back({k, c1, s1, c2, s2, L});
+    s.Dt += L;
+    s.Ic += s2 - s1;
+    s.Is += c1 - c2;
+    s.S2 += 2.0 * (s2 * c2 - s1 * c1);
+    s.Ics += 0.5 * (s2 * s2 - s1 * s1);
+    s.S3 += s2 * s2 * s2 - s1 * s1 * s1;
+    s.C3 += c2 * c2 * c2 - c1 * c1 * c1;
+    // atan2(Y2, X2) - atan2(Y1, X1) in one atan2: with X1, X2 > 0 (k > 0: X >= 2 min(1, k)) both
+    // lie in (-pi/2, pi/2), so their difference is in (-pi, pi) and needs no branch
+    double Y1, X1, Y2, X2;
+    GYX(c1, s1, Y1, X1);
+    GYX(c2, s2, Y2, X2);
+    if (X1 > 0.0 && X2 > 0.0)
+      s.dG += std::atan2(Y2 * X1 - X2 * Y1, X1 * X2 + Y1 * Y2);
+    else
+      s.dG += std::atan2(Y2, X2) - std::atan2(Y1, X1);
+  }
+  return !(s.Dt == 0.0 && s.dG == 0.0);
+}
+
+// The moments of the exposed arcs of one circle, added to the totals.
+inline void Arrangement::add_circle_moments(const Circle& ck, const ArcSums& s, const double* centre, double r,
+                                            Totals& t) const {
+  const double Dt = s.Dt, Ic = s.Ic, Is = s.Is;
+  const double Icc = 0.5 * Dt + 0.25 * s.S2, Iss = 0.5 * Dt - 0.25 * s.S2, Ics = s.Ics;
+  // cubic moments: int cos^3 = [sin - sin^3/3], int sin^3 = [-cos + cos^3/3], int cos^2 sin = [-cos^3/3],
+  // int cos sin^2 = [sin^3/3] over the arcs
+  const double S3t = s.S3 / 3.0, C3t = s.C3 / 3.0;
+  const double Iccc = Ic - S3t, Isss = Is + C3t, Iccs = -C3t, Icss = S3t;
+  // area: -h dt + 2 sgn(h + q.n) [G(t2) - G(t1)], G(t) = (t - dl)/2 + atan2 part
+  t.area_U += -ck.h * Dt + 2.0 * s.sg * (0.5 * Dt + s.dG);
+  // In the circle's frame E = (n, e1, e2): u(t) = sum_q b_q E_q w_q(t), nu = u' x u = sum_p a_p E_p w_p(t)
+  // with w = (1, cos t, sin t), b = (h, rho, rho), a = (-rho^2, h rho, h rho), W_pq.. = int w_p w_q .. dt
+  // over the exposed arcs.  Then
+  //   J1 = sum_p W_p a_p E_p,   J2 + J2^T = sum_xy W_xy s_xy E_x (x) E_y,  s_xy = a_x b_y + a_y b_x,
+  // and m3 enters only contracted with the sphere centre c (local coordinates cl):
+  //   (J3_xyz + J3_yxz + J3_zxy) c_z = sum_xy Lk_xy E_x (x) E_y,  Lk_xy = s_xy T_xy + b_x b_y U_xy,
+  //   T_xy = sum_r W_xyr b_r cl_r = h Z + rho V,  U_xy = sum_p a_p cl_p W_pxy = -rho^2 Z + h rho V,
+  //   Z_xy = cl_0 W_xy,  V_xy = cl_1 W_xy1 + cl_2 W_xy2.
+  // Only r m2 + m3c and m2 c are needed (add_from_surface), so one symmetric matrix
+  // Lc = r/6 (J2 + J2^T) + Lk/12 (local) is rotated per circle.
+  const double r6 = r / 6.0;
+  const double h = ck.h, rho = ck.rho;
+  const double* n = ck.n;
+  const double* e1 = ck.e1;
+  const double* e2 = ck.e2;
+  const double cl0 = dot3(n, centre), cl1 = dot3(e1, centre), cl2 = dot3(e2, centre);
+  // the six entries xy = 00, 01, 02, 11, 12, 22
+  const double W2[6] = {Dt, Ic, Is, Icc, Ics, Iss};
+  const double W31[6] = {Ic, Icc, Ics, Iccc, Iccs, Icss};  // W_xy1
+  const double W32[6] = {Is, Ics, Iss, Iccs, Icss, Isss};  // W_xy2
+  const double s01 = rho * (h * h - rho * rho), s11 = 2.0 * h * rho * rho;
+  const double sv[6] = {-2.0 * rho * rho * h, s01, s01, s11, s11, s11};
+  const double hr = h * rho, rr = rho * rho;
+  const double bb[6] = {h * h, hr, hr, rr, rr, rr};
+  double L2[6], Lc[6];
+  for (int e = 0; e < 6; ++e) {
+    const double Z = cl0 * W2[e], V = cl1 * W31[e] + cl2 * W32[e];
+    L2[e] = W2[e] * sv[e];
+    Lc[e] = r6 * L2[e] + (sv[e] * (h * Z + rho * V) + bb[e] * (hr * V - rr * Z)) * (1.0 / 12.0);
+  }
+  // (J2 + J2^T) c = sum_x v2_x E_x, v2 = L2 cl;  J1
+  const double v20 = L2[0] * cl0 + L2[1] * cl1 + L2[2] * cl2;
+  const double v21 = L2[1] * cl0 + L2[3] * cl1 + L2[4] * cl2;
+  const double v22 = L2[2] * cl0 + L2[4] * cl1 + L2[5] * cl2;
+  const double j0 = -(rr * Dt), j1 = hr * Ic, j2 = hr * Is;
+  for (int x = 0; x < 3; ++x) {
+    t.J1[x] += j0 * n[x] + j1 * e1[x] + j2 * e2[x];
+    t.J2c[x] += v20 * n[x] + v21 * e1[x] + v22 * e2[x];
+  }
+  // rotate Lc to the sphere's axes: sum_pq Lc_pq E_p E_q^T (upper triangle)
+  double RC0[3], RC1[3], RC2[3];
+  for (int j = 0; j < 3; ++j) {
+    RC0[j] = Lc[0] * n[j] + Lc[1] * e1[j] + Lc[2] * e2[j];
+    RC1[j] = Lc[1] * n[j] + Lc[3] * e1[j] + Lc[4] * e2[j];
+    RC2[j] = Lc[2] * n[j] + Lc[4] * e1[j] + Lc[5] * e2[j];
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) t.QS[3 * i + j] += n[i] * RC0[j] + e1[i] * RC1[j] + e2[i] * RC2[j];
+}
+
+// a, m1, m2 c and r m2 + m3c of the exposed region from the totals
+inline void Arrangement::finish(const Totals& t, const double* centre, double r, SurfaceMoments& out) {
+  const double a = kFourPi - (t.area_U + (t.in_U ? kFourPi : 0.0));
+  out.a = a;
+  for (int x = 0; x < 3; ++x) out.m1[x] = 0.5 * t.J1[x];
+  // m2 c = a c / 3 + (J2 + J2^T) c / 6;  r m2 + m3c with m3 c = [sym(J3) + T(J1)] c / 12,
+  // T(v)_xyz c_z = delta_xy (v.c) + c_x v_y + c_y v_x
+  for (int x = 0; x < 3; ++x) out.m2c[x] = a / 3.0 * centre[x] + t.J2c[x] / 6.0;
+  const double J1c = dot3(t.J1, centre);
+  for (int x = 0; x < 3; ++x)
+    for (int y = x; y < 3; ++y)
+      out.Qs[3 * x + y] = out.Qs[3 * y + x] = t.QS[3 * x + y] + (x == y ? r * a / 3.0 + J1c / 12.0 : 0.0) +
+                                              (centre[x] * t.J1[y] + centre[y] * t.J1[x]) / 12.0;
+}
 // ------------------------------------------------------------------ the exact method
 struct ExactWorkspace {
   PairSearch search;
@@ -891,6 +958,10 @@ struct ExactWorkspace {
   std::vector<double> alpha;
   std::vector<int> order;
   std::vector<double> unique_c, unique_r;
+  std::vector<int> by_size;                     // moments_of_reaching_caps: caps by decreasing size,
+  std::vector<signed char> chosen;              // the subset's flags, its caps,
+  std::vector<Cap> subset;                      // and the caps reaching its exposed region
+  std::vector<std::tuple<int, int, int>> reach;
   Arrangement arr;
 };
 
@@ -1066,6 +1137,127 @@ inline int prune_caps(Cap* caps, int K, ExactWorkspace& w) {
   return m;
 }
 
+// ------------------------------------------------------------------ caps that cannot reach the exposed region
+// A sphere with many caps (dense clumps: every neighbour cuts one) has an exposed region bounded by
+// a few of them; the others lie in the union of the rest and change nothing.  The region is found
+// from a subset S of the caps, the largest first: the arrangement of S gives the region E_S (which
+// contains the true region E) and its boundary arcs.  A cap outside S that keeps clear of every
+// boundary arc of E_S (by kCapClearance) and whose axis point lies in a cap of S (by kInsideCap)
+// lies outside E_S entirely; if every cap outside S does, E = E_S and the moments of E_S are the
+// sphere's.  Otherwise the caps that reach E_S join S (those covering most of its boundary first)
+// and the arrangement is computed again.  A cap is dropped only where the margins decide it, so
+// the result is the arrangement of all caps, to round-off (docs/exact_method.md, section 2).
+constexpr int kCoveredCapsAbove = 48;  // spheres with more caps than this go through the subset
+constexpr int kFirstCaps = 24;         // the size of the first subset
+constexpr double kCapClearance = 1e-9;  // f_j = u.n_j - h_j below -this on every arc: cap j is clear of it
+constexpr double kInsideCap = 1e-12;    // a point with f_k above this lies in cap k
+
+// The largest value of f_j(u) = u.n_j - h_j on one exposed arc, and whether the arc starts inside cap j.
+inline double max_on_arc(const Arrangement::Circle& ck, const Arrangement::Arc& arc, const Cap& cj,
+                         bool& starts_inside) {
+  const double M = ck.h * dot3(ck.n, cj.n) - cj.h;
+  const double A = ck.rho * dot3(ck.e1, cj.n), B = ck.rho * dot3(ck.e2, cj.n);
+  const double R = std::sqrt(A * A + B * B);
+  const double f1 = M + A * arc.c1 + B * arc.s1;
+  starts_inside = f1 > 0.0;
+  if (arc.L >= kTwoPi) return M + R;
+  double best = std::max(f1, M + A * arc.c2 + B * arc.s2);
+  if (R > 0.0) {  // the circle's point nearest n_j, if on the arc
+    const double cp = A / R, sp = B / R;
+    double t = std::atan2(arc.c1 * sp - arc.s1 * cp, arc.c1 * cp + arc.s1 * sp);
+    if (t < 0.0) t += kTwoPi;
+    if (t <= arc.L) best = M + R;
+  }
+  return best;
+}
+
+// Whether cap j can reach the exposed region of the arrangement (the caps of S, in arr); score: how
+// much of the region's boundary it covers (arcs it enters, arcs starting inside it).
+inline bool reaches_exposed_region(const Arrangement& arr, const Cap& cj, const Cap* subset, int Ks, int& score) {
+  score = 0;
+  if (arr.arcs.empty()) return false;  // nothing exposed
+  bool reaches = false;
+  for (const Arrangement::Arc& arc : arr.arcs) {
+    bool starts_inside = false;
+    const double f = max_on_arc(arr.C[arc.circle], arc, cj, starts_inside);
+    if (f > -kCapClearance) reaches = true;
+    score += (f > 0.0) + starts_inside;
+  }
+  if (reaches) return true;
+  // clear of the boundary: cap j lies inside E_S or outside it, as its axis point does
+  for (int k = 0; k < Ks; ++k)
+    if (dot3(cj.n, subset[k].n) - subset[k].h > kInsideCap) return false;
+  return true;
+}
+
+// The caps outside the subset (chosen) that reach its exposed region, in w.reach as (-score, size
+// rank, cap); false if there is none.
+inline bool caps_reaching_region(const Cap* caps, int K, const signed char* chosen, int Ks, ExactWorkspace& w) {
+  w.reach.clear();
+  for (int q = 0; q < K; ++q) {
+    const int k = w.by_size[q];
+    int score = 0;
+    if (!chosen[k] && reaches_exposed_region(w.arr, caps[k], w.subset.data(), Ks, score))
+      w.reach.push_back({-score, q, k});
+  }
+  return !w.reach.empty();
+}
+
+// Surface moments of one sphere from its K caps (K > kCoveredCapsAbove), computed on the subset of
+// the caps that reach the exposed region (above).  Returns false if the sphere is covered entirely.
+inline bool moments_of_reaching_caps(const Cap* caps, int K, const double* centre, double r, SurfaceMoments& s,
+                                     ExactWorkspace& w) {
+  w.by_size.resize(K);  // caps by decreasing angular radius (increasing h)
+  for (int k = 0; k < K; ++k) w.by_size[k] = k;
+  std::sort(w.by_size.begin(), w.by_size.end(),
+            [&](int a, int b) { return caps[a].h < caps[b].h || (caps[a].h == caps[b].h && a < b); });
+  signed char* chosen = filled(w.chosen, K, static_cast<signed char>(0));
+  int n_chosen = std::min(K, kFirstCaps);
+  for (int q = 0; q < n_chosen; ++q) chosen[w.by_size[q]] = 1;
+  Arrangement& arr = w.arr;
+  arr.record_arcs = true;
+  for (;;) {
+    w.subset.clear();
+    for (int k = 0; k < K; ++k)
+      if (chosen[k]) w.subset.push_back(caps[k]);  // in the caps' order (by neighbour)
+    const int Ks = prune_caps(w.subset.data(), static_cast<int>(w.subset.size()), w);
+    if (Ks < 0) break;  // complementary caps: nothing exposed
+    arr.compute(w.subset.data(), Ks, centre, r, s);  // one cap: only its arc is used
+    if (Ks == 1) single_cap(w.subset[0].n, w.subset[0].h, w.subset[0].rho, centre, r, s);
+    if (!caps_reaching_region(caps, K, chosen, Ks, w)) {
+      arr.record_arcs = false;
+      return true;
+    }
+    // where at least half of the other caps reach the region, all join (their circles bound it, as
+    // on a sphere studded with small ones); else those covering most of the boundary first, then
+    // the larger, the subset growing by half
+    const int n_reach = static_cast<int>(w.reach.size());
+    int add = n_reach;
+    if (2 * n_reach < K - n_chosen) {
+      std::sort(w.reach.begin(), w.reach.end());
+      add = std::min(n_reach, std::max(n_chosen / 2, kFirstCaps));
+    }
+    for (int t = 0; t < add; ++t) chosen[std::get<2>(w.reach[t])] = 1;
+    n_chosen += add;
+  }
+  arr.record_arcs = false;
+  return false;
+}
+
+// Surface moments of one sphere from its K >= 1 caps (compacted in place); false if the sphere is
+// covered entirely.
+inline bool exposed_region_moments(Cap* caps, int K, const double* centre, double r, SurfaceMoments& s,
+                                   ExactWorkspace& w) {
+  if (K > kCoveredCapsAbove) return moments_of_reaching_caps(caps, K, centre, r, s, w);
+  K = prune_caps(caps, K, w);
+  if (K < 0) return false;  // covered entirely by complementary caps
+  if (K == 1)
+    single_cap(caps[0].n, caps[0].h, caps[0].rho, centre, r, s);
+  else
+    w.arr.compute(caps, K, centre, r, s);
+  return true;
+}
+
 inline void exact_moments(const double* c, const double* r, int n, Moments& out, ExactWorkspace& w) {
   out.clear();
   if (drop_redundant(c, r, n, w)) {
@@ -1087,13 +1279,7 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
       add_ball(c + 3 * i, r[i], out);
       continue;
     }
-    K = prune_caps(caps, K, w);
-    if (K < 0) continue;  // covered entirely by complementary caps
-    if (K == 1)
-      single_cap(caps[0].n, caps[0].h, caps[0].rho, c + 3 * i, r[i], s);
-    else
-      w.arr.compute(caps, K, c + 3 * i, r[i], s);
-    add_from_surface(c + 3 * i, r[i], s, out);
+    if (exposed_region_moments(caps, K, c + 3 * i, r[i], s, w)) add_from_surface(c + 3 * i, r[i], s, out);
   }
 }
 
