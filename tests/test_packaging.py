@@ -52,3 +52,12 @@ def test_the_sdist_holds_the_core_sources_and_nothing_of_the_studies(tmp_path):
         assert need in names, need
     assert not [n for n in names if n.split("/")[0] in ("results", "studies", "tests", "benchmarks", "yade_scripts")]
     assert not [n for n in names if n.endswith(".so")]
+
+
+def test_marker_sets_name_existing_test_files_and_library_tests_neither_run_yade_nor_are_slow():
+    import conftest
+
+    here = {p.name for p in Path(__file__).resolve().parent.glob("test_*.py")}
+    for marker, files in conftest.MARKERS.items():
+        assert files <= here, (marker, files - here)
+    assert not conftest.LIBRARY & (conftest.YADE | conftest.SLOW)
