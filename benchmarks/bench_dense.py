@@ -12,7 +12,7 @@ Cases (each in its own process, so that its peak memory is its own):
 Prints CPU time (process_time) and peak resident memory (ru_maxrss) per case and the fitted
 exponent of time against N.  With ``--before DIR`` (a directory holding another build of
 ``clumpprops.core._core``, e.g. one built from an older commit) each case also runs on that
-core, side by side.  The targets of issue 37: 1,000 mutually overlapping spheres in <= 10 s;
+core, side by side.  The targets: 1,000 mutually overlapping spheres in <= 10 s;
 10^5 identical spheres in <= 1 s with memory linear in N.  Timing only: nothing is asserted.
 """
 from __future__ import annotations

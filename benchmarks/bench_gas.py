@@ -1,4 +1,4 @@
-"""Gas-study benchmarks (issues 5 and 8), side by side in one run.
+"""Gas-study benchmarks, side by side in one run.
 
 1. Recording overhead: the paper's 864-dimer gas (case ``exact``) from one run file, with
    recording (``record: true``) and bare (no recording PyRunner), two YADE processes side by

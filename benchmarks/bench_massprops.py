@@ -1,4 +1,4 @@
-"""Benchmarks of the mass-property methods (issues 2 and 3), measured side by side in one run.
+"""Benchmarks of the mass-property methods, measured side by side in one run.
 
 Run:  .venv/bin/python -m benchmarks.bench_massprops [--quick]
 

@@ -1,4 +1,4 @@
-"""From run records to per-run D, and the sequential design of a study (issue 12).
+"""From run records to per-run D, and the sequential design of a study.
 
 Pure functions of run records (the JSON files of :mod:`studies.runner`); no Dask, no YADE,
 no driver.  The driver (:mod:`studies.engine`) asks :func:`plan` which seeds a sequential

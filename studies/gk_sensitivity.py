@@ -1,4 +1,4 @@
-"""How much D of committed runs depends on the Green-Kubo estimator's choices (issue 12).
+"""How much D of committed runs depends on the Green-Kubo estimator's choices.
 
     .venv/bin/python -m studies gk-sensitivity                        # results/sphere_gas
     .venv/bin/python -m studies gk-sensitivity results/dimer_paired    # any study's records

@@ -1,4 +1,4 @@
-"""The effect of each case's mass properties on D, predicted from binary collisions (issue 12).
+"""The effect of each case's mass properties on D, predicted from binary collisions.
 
     .venv/bin/python -m studies case-map                         # the paper's dimer, 10,000 collisions
     .venv/bin/python -m studies case-map --pairs 2000 --quick    # a look (~1 CPU-min)

@@ -11,7 +11,7 @@ over seeds of each D, the sd of D_case/D_exact - 1 (the per-pair spread a sequen
 reads), and the spread that uncorrelated runs would give (the two relative sds added in
 quadrature, times the ratio of the means).
 
-Why it is here (issue 12): the stiffness study's first projection scaled the per-pair spread of
+Why it is here: the stiffness study's first projection scaled the per-pair spread of
 `dimer_paired`'s 1,000 s mass_only pairs to 400 s as 1/sqrt(T) (3.2 % a pair), and the 400 s runs
 at 1e8 Pa gave 2.0 %.  If a pair's runs, which share their initial state, stay alike for a time
 that does not grow with the run, a shorter run's pairs are more correlated and its per-pair spread

@@ -1,5 +1,5 @@
 """The gas's velocity relaxation time against the collision map's: where a gas and the binary
-collisions behind the map (studies/maps.py) agree, and where not (issue 12).
+collisions behind the map (studies/maps.py) agree, and where not.
 
 In a dilute gas a body's velocity autocorrelation starts as exp(-t/tau), and 1/tau (the collision
 rate times the mean fractional momentum loss per collision) is set by binary collisions alone: it

@@ -1,4 +1,4 @@
-"""Fuzz target for ``method="exact"``: random clumps, near-degenerate ones included (issue 10).
+"""Fuzz target for ``method="exact"``: random clumps, near-degenerate ones included.
 
     .venv/bin/python tests/fuzz_exact.py [--clumps 10000] [--seed 0] [--reference 0]
 

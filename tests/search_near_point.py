@@ -1,4 +1,4 @@
-"""Direct search over the spheres-through-one-point classes of tests/test_exact_degenerate.py (issue 10, item 1).
+"""Direct search over the spheres-through-one-point classes of tests/test_exact_degenerate.py.
 
     OMP_NUM_THREADS=1 .venv/bin/python tests/search_near_point.py [--kind near_coplanar] [--clumps 3000]
         [--seed 0] [--offsets -12 -6] [--reference 3] [--worst 5] [--json out.json]

@@ -1,4 +1,4 @@
-"""``method="exact"``: identities, symmetry, baselines, batch input and robustness (issue 3).
+"""``method="exact"``: identities, symmetry, baselines, batch input and robustness.
 
 Every check compares exact with something it does not share code with: closed forms,
 method "sum" (no overlap handling), method "pairwise" (the paper's lens formulas),

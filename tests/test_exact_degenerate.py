@@ -1,4 +1,4 @@
-"""``method="exact"`` at every scale of near-degeneracy (issue 10): explicit regression inputs.
+"""``method="exact"`` at every scale of near-degeneracy: explicit regression inputs.
 
 Coincident and near-coincident spheres (offsets from 1e-300 to 1e-6 of the radius),
 nested and internally near-tangent spheres, alone and cut by other spheres.  Every

@@ -1,4 +1,4 @@
-"""Time-step convergence of the gas studies (issue 8): the collision map and the gas's energy drift.
+"""Time-step convergence of the gas studies: the collision map and the gas's energy drift.
 
     .venv/bin/python -m studies timestep                       # the full study (~17 CPU-min)
     .venv/bin/python -m studies timestep --pairs 100 --no-gas  # a quick look (~1 CPU-min)
