@@ -95,3 +95,16 @@ def rotation_after(I0, L, t, rtol=1e-12, atol=1e-14):
     sol = solve_ivp(rhs, (0.0, t), np.eye(3).ravel(), method="DOP853", rtol=rtol, atol=atol)
     assert sol.success
     return sol.y[:, -1].reshape(3, 3)
+
+
+# the first lines of every LIGGGHTS deck the tests write: a 2 m box of SI units, one atom type
+LIGGGHTS_BOX = """atom_style sphere
+atom_modify map array sort 0 0
+boundary f f f
+newton off
+communicate single vel yes
+processors 1 1 1
+units si
+region reg block -1 1 -1 1 -1 1 units box
+create_box 1 reg
+"""

@@ -46,6 +46,15 @@ def fresh_scene(density=PAPER_RHO, young=1e7, poisson=0.4, friction_deg=0.0):
     return O
 
 
+
+@pytest.fixture
+def scene():
+    """A fresh scene of the paper's material for one test, reset afterwards (import it into a test module)."""
+    fresh_scene()
+    yield O
+    O.reset()
+
+
 def vec(v):
     return np.array([float(v[0]), float(v[1]), float(v[2])])
 
@@ -90,6 +99,26 @@ def assert_state_matches(state, mp, rtol=1e-12):
     dw = np.max(np.abs(np.sort(vec(state.inertia)) - mp.principal_moments))
     assert dw <= rtol * Imax, (dw, Imax)
 
+
+
+def exact_of(cid):
+    """The library's properties of the clump's sphere members where they are now (independent of YADE's state)."""
+    from clumpprops import mass_properties, yade as cy
+
+    ids = cy.sphere_member_ids(cid)
+    c = np.array([vec(O.bodies[i].state.pos) for i in ids])
+    r = np.array([O.bodies[i].shape.radius for i in ids])
+    return mass_properties(c, r, PAPER_RHO)
+
+
+def assert_exact(cid):
+    """The clump's YADE state equals the library's properties of its members, and the scene check agrees."""
+    from clumpprops import yade as cy
+
+    assert_state_matches(O.bodies[cid].state, exact_of(cid))
+    rep = cy.check()
+    assert rep.ok, str(rep)
+    assert cid in rep.exact
 
 def scene_snapshot():
     """Everything bad input must not change: bodies, shapes, states, clump membership."""

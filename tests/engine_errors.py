@@ -22,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _engines import LAMMPS, LIGGGHTS, quat_to_matrix, read_dump
+from _engines import LAMMPS, LIGGGHTS, LIGGGHTS_BOX, quat_to_matrix, read_dump
 
 from clumpprops import mass_properties
 from clumpprops.io import Clump, export
@@ -41,16 +41,7 @@ def ten_sphere_clump(seed=3):
 
 DIMER = Clump(np.array([[0, 0, -D / 4], [0, 0, D / 4]]), np.array([D / 2, D / 2]), name="dimer")
 
-LIG = """atom_style sphere
-atom_modify map array sort 0 0
-boundary f f f
-newton off
-communicate single vel yes
-processors 1 1 1
-units si
-region reg block -1 1 -1 1 -1 1 units box
-create_box 1 reg
-fix m1 all property/global youngsModulus peratomtype 1.e7
+LIG = LIGGGHTS_BOX + """fix m1 all property/global youngsModulus peratomtype 1.e7
 fix m2 all property/global poissonsRatio peratomtype 0.4
 fix m3 all property/global coefficientRestitution peratomtypepair 1 0.9
 fix m4 all property/global coefficientFriction peratomtypepair 1 0.0

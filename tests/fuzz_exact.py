@@ -43,6 +43,7 @@ from scipy.spatial.transform import Rotation
 
 import clumpprops
 from clumpprops import mass_properties
+from test_exact import triple_point  # noqa: E402  (tests/ is on the path: run as a script or by pytest)
 
 TOL = 1e-12
 REFERENCE_MAX_SPHERES = 20  # the slicing reference takes minutes on the dense clusters: it sees the others
@@ -73,19 +74,8 @@ def _log_uniform(rng, lo, hi):
 
 def _triple_point(c, r):
     """A point where three sphere surfaces meet, or None."""
-    A = 2 * (c[1:] - c[0])
-    b = (r[0] ** 2 - r[1:] ** 2) + np.sum(c[1:] ** 2, axis=1) - np.sum(c[0] ** 2)
-    d = np.cross(A[0], A[1])
-    if np.linalg.norm(d) < 1e-9:
-        return None
-    p0 = np.linalg.lstsq(A, b, rcond=None)[0]
-    d /= np.linalg.norm(d)
-    w = p0 - c[0]
-    bb = w @ d
-    disc = bb * bb - (w @ w - r[0] ** 2)
-    if disc <= 0:
-        return None
-    return p0 + (-bb + math.sqrt(disc)) * d
+    points = triple_point(c, r)
+    return None if points is None else points[0]
 
 
 def _degenerate(rng, c, r, kind):

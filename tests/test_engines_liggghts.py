@@ -31,18 +31,9 @@ import pytest
 from clumpprops import mass_properties
 from clumpprops.io import Clump, export
 
-from _engines import APART_C, APART_R, ASYM_C, ASYM_R, LIGGGHTS, RHO, read_dump, rotation_after, run, thermo_rows
+from _engines import APART_C, APART_R, ASYM_C, ASYM_R, LIGGGHTS, LIGGGHTS_BOX, RHO, read_dump, rotation_after, run, thermo_rows
 
-PRE = """atom_style sphere
-atom_modify map array sort 0 0
-boundary f f f
-newton off
-communicate single vel yes
-processors 1 1 1
-units si
-region reg block -1 1 -1 1 -1 1 units box
-create_box 1 reg
-neighbor 0.01 bin
+PRE = LIGGGHTS_BOX + """neighbor 0.01 bin
 neigh_modify delay 0
 fix m1 all property/global youngsModulus peratomtype 1.e7
 fix m2 all property/global poissonsRatio peratomtype 0.4

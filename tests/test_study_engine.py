@@ -51,13 +51,8 @@ def _tiny_analysis(t_end):
 
 def tiny(tmp, t_end=6.0, seeds=(1,), cases=("exact", "uncorrected", "spheres"), extra=None, **over):
     """A test-scale spec written to tmp (27 particles, volume fraction 0.02) and its results dir."""
-    with open(os.path.join(S.SPEC_DIR, "test.toml"), "rb") as f:
-        r = tomllib.load(f)
-    r["study"]["results"] = str(tmp / "results")
-    r["study"]["yade"] = NATIVE
-    r["run"]["t_end"] = t_end
-    r["analysis"].update(_tiny_analysis(t_end))
-    r["groups"] = [{"shape": "dimer", "cases": list(cases), "seeds": list(seeds)}] + list(extra or [])
+    r = _raw_tiny(tmp, t_end, seeds, cases)
+    r["groups"] += list(extra or [])
     for k, v in over.items():
         t, key = k.split("__")
         r[t][key] = v

@@ -9,8 +9,8 @@ control).  Importing the adapter and building clumps install nothing: that too r
 import numpy as np
 import pytest
 
-from _yadehelpers import (
-    O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, run_yade_script,
+from _yadehelpers import (  # noqa: F401  (scene: a fixture)
+    O, assert_exact, exact_of, scene, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, run_yade_script,
     scene_snapshot, vec, utils,
 )
 
@@ -23,30 +23,12 @@ cy.install_guards()  # these tests check YADE's O.bodies methods as the guards r
 G = 9.81
 
 
-@pytest.fixture
-def scene():
-    fresh_scene()
-    yield O
-    O.reset()
-
 
 def dimer(dx=0.0):
     d = PAPER_D
     return np.array([[dx, 0, -d / 4], [dx, 0, d / 4]]), np.array([d / 2, d / 2])
 
 
-def exact_of(cid):
-    ids = cy.sphere_member_ids(cid)
-    c = np.array([vec(O.bodies[i].state.pos) for i in ids])
-    r = np.array([O.bodies[i].shape.radius for i in ids])
-    return clumpprops.mass_properties(c, r, PAPER_RHO)
-
-
-def assert_exact(cid):
-    assert_state_matches(O.bodies[cid].state, exact_of(cid))
-    rep = cy.check()
-    assert rep.ok, str(rep)
-    assert cid in rep.exact
 
 
 # ---------------------------------------------------------------- calls that abort YADE: subprocesses

@@ -15,8 +15,8 @@ import warnings
 import numpy as np
 import pytest
 
-from _yadehelpers import (
-    O, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, random_clump,
+from _yadehelpers import (  # noqa: F401  (scene: a fixture)
+    O, assert_exact, exact_of, scene, PAPER_D, PAPER_RHO, assert_state_matches, fresh_scene, is_yade_2023, make_spheres, random_clump,
     run_yade_script, scene_snapshot, vec, yade, utils,
 )
 
@@ -33,12 +33,6 @@ cy.install_guards()  # these tests check YADE's O.bodies methods as the guards r
 G = 9.81
 
 
-@pytest.fixture
-def scene():
-    fresh_scene()
-    yield O
-    O.reset()
-
 
 def dimer(dx=0.0, D=PAPER_D / 2):
     d = PAPER_D
@@ -51,19 +45,6 @@ def trimer(dx=0.0, s=0.03):
     return np.array([[dx, 0, -s], [dx, 0, s], [dx, s, 0]]), np.array([d / 2, d / 2, d / 2])
 
 
-def exact_of(cid):
-    """The library's properties of the clump's sphere members where they are now (independent of YADE's state)."""
-    ids = cy.sphere_member_ids(cid)
-    c = np.array([vec(O.bodies[i].state.pos) for i in ids])
-    r = np.array([O.bodies[i].shape.radius for i in ids])
-    return clumpprops.mass_properties(c, r, PAPER_RHO)
-
-
-def assert_exact(cid):
-    assert_state_matches(O.bodies[cid].state, exact_of(cid))
-    rep = cy.check()
-    assert rep.ok, str(rep)
-    assert cid in rep.exact
 
 
 def free_bodies():
