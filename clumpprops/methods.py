@@ -78,7 +78,7 @@ class Exact:
 
 @dataclass(frozen=True)
 class Pairwise:
-    """The paper's pairwise overlap correction, eqs. (1)-(7).
+    """The pairwise overlap correction of the paper (its equations 1-7).
 
     The same as ``method="pairwise"``.  Exact where no point lies in three spheres;
     :func:`clumpprops.mass_properties` raises :class:`~clumpprops.ClumpGeometryError` where
