@@ -147,19 +147,14 @@ def voxel_moments(sph: Spheres, discretization=10):
     Parameters
     ----------
     sph : clumpprops._input.Spheres
-        The checked, flattened spheres of M clumps (centres in m relative to each clump's
-        origin, radii in m).
+        The spheres of M clumps, as for :func:`montecarlo_moments`.
     discretization : int, optional
         Cells along the smallest extent of a clump's bounding box, 1 to 1000.
 
     Returns
     -------
-    V : numpy.ndarray, shape (M,)
-        Volume of each clump, in m^3.
-    S : numpy.ndarray, shape (M, 3)
-        First moment about the clump's origin, in m^4.
-    Q : numpy.ndarray, shape (M, 3, 3)
-        Second moment about the clump's origin, in m^5.
+    V, S, Q : numpy.ndarray, shapes (M,), (M, 3), (M, 3, 3)
+        As :func:`~clumpprops.pairwise.sphere_moments` returns them, for the voxel estimate.
 
     Raises
     ------

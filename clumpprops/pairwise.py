@@ -311,12 +311,8 @@ def pairwise_moments(sph: Spheres, check=True):
 
     Returns
     -------
-    V : numpy.ndarray, shape (M,)
-        Volume of each clump, in m^3.
-    S : numpy.ndarray, shape (M, 3)
-        First moment about the clump's origin, in m^4.
-    Q : numpy.ndarray, shape (M, 3, 3)
-        Second moment about the clump's origin, in m^5.
+    V, S, Q : numpy.ndarray, shapes (M,), (M, 3), (M, 3, 3)
+        As :func:`sphere_moments` returns them, for the union.
 
     Raises
     ------

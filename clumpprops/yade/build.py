@@ -306,9 +306,7 @@ def append_clump(spheres, method=DEFAULT_METHOD):
     spheres : list of yade.Body
         Sphere bodies not yet in a scene (as made by ``utils.sphere``), of one density.
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
-        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
-        ``"voxel"``, with their default options); recorded with the correction.
+        The method, as for :func:`append_clumps` (default ``"exact"``).
 
     Returns
     -------
@@ -369,9 +367,7 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
     clump_ids : int or iterable of int
         Ids of clumps of spheres in ``O.bodies`` (an id given twice is corrected once).
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
-        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
-        ``"voxel"``, with their default options); recorded with the correction.
+        The method, as for :func:`append_clumps` (default ``"exact"``).
 
     Returns
     -------
@@ -413,9 +409,7 @@ def correct_clump(clump_id, method=DEFAULT_METHOD):
     clump_id : int
         Id of a clump of spheres in ``O.bodies``.
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
-        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
-        ``"voxel"``, with their default options); recorded with the correction.
+        The method, as for :func:`append_clumps` (default ``"exact"``).
 
     Returns
     -------
@@ -437,9 +431,7 @@ def correct_all_clumps(method=DEFAULT_METHOD):
     Parameters
     ----------
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
-        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
-        ``"voxel"``, with their default options); recorded with the correction.
+        The method, as for :func:`append_clumps` (default ``"exact"``).
 
     Returns
     -------
@@ -471,9 +463,7 @@ def replace_by_clumps(templates, amounts, discretization=0, method=DEFAULT_METHO
     discretization : int, optional
         Accepted for compatibility and irrelevant: the new clumps get the library's values.
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
-        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
-        ``"voxel"``, with their default options); recorded with the correction.
+        The method, as for :func:`append_clumps` (default ``"exact"``).
 
     Returns
     -------

@@ -128,8 +128,9 @@ def exact_properties(clump_id, method=DEFAULT_METHOD):
     Raises
     ------
     ClumpAdapterError
-        If ``clump_id`` is not an integer, not a body, not a clump, or the clump has a member
-        that is neither a sphere with a material nor a correction.
+        If ``clump_id`` is not an integer, not a body or not a clump, or the clump has a member
+        that is neither a sphere with a material nor a correction, no sphere member, or more
+        than one correction.
         Also if the spheres' densities differ or are not positive.
     ValueError
         If the method cannot compute the clump (e.g. :class:`~clumpprops.ClumpGeometryError`
@@ -158,8 +159,9 @@ def correction_id(clump_id):
     Raises
     ------
     ClumpAdapterError
-        If ``clump_id`` is not an integer, not a body, not a clump, or the clump has a member
-        that is neither a sphere with a material nor a correction.
+        If ``clump_id`` is not an integer, not a body or not a clump, or the clump has a member
+        that is neither a sphere with a material nor a correction, no sphere member, or more
+        than one correction.
     """
     _, corr = _split_members(_clump_body(clump_id))
     return None if corr is None else corr.id
@@ -181,8 +183,7 @@ def sphere_member_ids(clump_id):
     Raises
     ------
     ClumpAdapterError
-        If ``clump_id`` is not an integer, not a body, not a clump, or the clump has a member
-        that is neither a sphere with a material nor a correction.
+        As :func:`correction_id`.
     """
     spheres, _ = _split_members(_clump_body(clump_id))
     return [b.id for b in spheres]
@@ -236,8 +237,7 @@ def clump_errors(clump_id, method=DEFAULT_METHOD):
     clump_id : int
         Id of a clump in ``O.bodies``.
     method : str, optional
-        Name of the method of :func:`clumpprops.mass_properties` (``"exact"``, the default,
-        ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or ``"voxel"``).
+        The method of the library's values, as for :func:`exact_properties`.
 
     Returns
     -------
