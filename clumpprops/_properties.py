@@ -109,7 +109,7 @@ class MassProperties:
 
     Notes
     -----
-    Instances are immutable (the arrays are read-only float64 copies); index a batch with
+    Instances are immutable (every array is read-only float64); index a batch with
     ``mp[i]`` and iterate over its clumps with ``for p in mp``.
 
     A value object: ``==`` and ``hash`` compare the defining values exactly (mass, volume,
