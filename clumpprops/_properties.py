@@ -41,10 +41,28 @@ def _seal(*arrays):
 
 @dataclass(frozen=True)
 class StandardError:
-    """One-sigma standard errors of a sampled (Monte Carlo) estimate, same shapes as the values.
+    """One-sigma standard errors of a sampled (Monte Carlo) estimate.
 
-    ``mass`` in kg, ``volume`` in m^3, ``center_of_mass`` in m, ``inertia`` in kg m^2
-    (element-wise, delta method for the ratio estimators).
+    Each field has the shape of the value it belongs to in :class:`MassProperties` and is stored
+    as a read-only float64 array (a float for a 0-d value).  ``se[i]`` gives the errors of
+    clump ``i`` of a batch.
+
+    Parameters
+    ----------
+    mass : float or array_like, shape () or (M,)
+        Standard error of the mass, in kg.
+    volume : float or array_like, shape () or (M,)
+        Standard error of the volume, in m^3.
+    center_of_mass : array_like, shape (3,) or (M, 3)
+        Standard error of each coordinate of the centre of mass, in m.
+    inertia : array_like, shape (3, 3) or (M, 3, 3)
+        Standard error of each element of the inertia tensor about the centre of mass, in
+        kg m^2.
+
+    Notes
+    -----
+    The errors are element-wise; those of the centre of mass and the inertia (ratio
+    estimators) follow from the delta method.
     """
 
     mass: np.ndarray
@@ -64,16 +82,35 @@ class StandardError:
 class MassProperties:
     """Mass properties of one clump, or of a batch of M clumps (leading axis M).
 
-    Attributes (SI units; shapes for one clump, prefixed by (M,) for a batch):
+    Made by :func:`clumpprops.mass_properties`.  Every parameter is an attribute of the same
+    name.  Shapes are those of one clump; a batch prefixes each array with (M,).
 
-    ``mass`` kg, ``volume`` m^3, ``center_of_mass`` (3,) m,
-    ``inertia`` (3, 3) kg m^2 about the centre of mass in the input axes,
-    ``principal_moments`` (3,) kg m^2 ascending, ``principal_axes`` (3, 3) orthonormal,
-    right-handed, columns are the axes,
-    ``method`` the method that produced them, ``density`` kg/m^3,
-    ``standard_error`` a :class:`StandardError` for sampled methods, else None.
+    Parameters
+    ----------
+    mass : float or array_like, shape () or (M,)
+        Mass, in kg.
+    volume : float or array_like, shape () or (M,)
+        Volume of the union of the spheres, in m^3.
+    center_of_mass : array_like, shape (3,) or (M, 3)
+        Centre of mass in the input axes, in m.
+    inertia : array_like, shape (3, 3) or (M, 3, 3)
+        Inertia tensor about the centre of mass, in the input axes, in kg m^2.
+    principal_moments : array_like, shape (3,) or (M, 3)
+        Principal moments of inertia, ascending, in kg m^2.
+    principal_axes : array_like, shape (3, 3) or (M, 3, 3)
+        Principal axes as the columns of an orthonormal, right-handed matrix:
+        ``inertia == principal_axes @ diag(principal_moments) @ principal_axes.T``.
+    method : str
+        Name of the method that produced the values (``"exact"``, ``"pairwise"``, ...).
+    density : float
+        Solid density of the member spheres, in kg/m^3.
+    standard_error : StandardError or None, optional
+        One-sigma errors for a sampled method (``"montecarlo"``), else None.
 
-    Instances are immutable (arrays are read-only); index a batch with ``mp[i]``.
+    Notes
+    -----
+    Instances are immutable (every array is read-only float64); index a batch with
+    ``mp[i]`` and iterate over its clumps with ``for p in mp``.
 
     A value object: ``==`` and ``hash`` compare the defining values exactly (mass, volume,
     centre of mass, inertia, method, density; -0.0 equals 0.0); principal moments and axes
@@ -113,6 +150,7 @@ class MassProperties:
 
     @property
     def batched(self) -> bool:
+        """True for a batch of clumps (``mass`` has shape (M,)), False for one clump."""
         return np.ndim(self.mass) == 1
 
     def __len__(self):
@@ -158,12 +196,35 @@ class MassProperties:
         return hash(tuple(parts))
 
     def allclose(self, other: "MassProperties", rtol: float = 1e-9, atol: float = 0.0) -> bool:
-        """True if every defining value agrees within ``atol + rtol * scale`` (all clumps of a batch).
+        """Whether every defining value agrees with ``other`` within a tolerance.
 
+        Parameters
+        ----------
+        other : MassProperties
+            The properties to compare with (one clump, or a batch of the same length).
+        rtol : float, optional
+            Relative tolerance, applied to the scale of each quantity (see Notes).
+        atol : float, optional
+            Absolute tolerance, in the quantity's own SI unit (kg, m^3, m, kg m^2).
+
+        Returns
+        -------
+        bool
+            True if mass, volume, centre of mass and inertia agree within
+            ``atol + rtol * scale`` for every clump; False otherwise, and for batches of
+            different shapes.
+
+        Raises
+        ------
+        TypeError
+            If ``other`` is not a :class:`MassProperties`.
+
+        Notes
+        -----
         Scales: mass and volume their own magnitude; the centre of mass the clump's radius of
         gyration sqrt(tr(I) / (2 m)) (so translating a clump far away does not loosen the test);
-        the inertia its largest element.  ``atol`` is in the quantity's own SI unit.  Method and
-        density are not compared (results of different methods can be close).
+        the inertia its largest element.  Method and density are not compared (results of
+        different methods can be close).
         """
         if not isinstance(other, MassProperties):
             raise TypeError(f"allclose needs a MassProperties, got {type(other).__name__}")
@@ -186,7 +247,24 @@ class MassProperties:
 
     # ------------------------------------------------------------ moved bodies
     def translated(self, v) -> "MassProperties":
-        """The same body moved by ``v`` (3,) m (or (M, 3) for a batch); inertia is about the COM."""
+        """The same body moved by a translation.
+
+        Parameters
+        ----------
+        v : array_like, shape (3,) or (M, 3)
+            Translation, in m: one for every clump, or one per clump of a batch.
+
+        Returns
+        -------
+        MassProperties
+            The moved body: the centre of mass moves by ``v``; mass, volume, the inertia
+            (about the centre of mass), the principal frame and the standard error are kept.
+
+        Raises
+        ------
+        ValueError
+            If ``v`` has another shape, or contains NaN or inf.
+        """
         v = np.asarray(v, dtype=np.float64)
         if v.shape not in ((3,), np.shape(self.center_of_mass)):
             raise ValueError(f"translation must have shape (3,) or {np.shape(self.center_of_mass)}, got {v.shape}")
@@ -197,11 +275,30 @@ class MassProperties:
                               standard_error=self.standard_error)
 
     def rotated(self, rotation) -> "MassProperties":
-        """The body rotated about the world origin by a proper rotation: a (3, 3) matrix or a
-        single ``scipy.spatial.transform.Rotation``.  COM -> R c, inertia -> R I R^T, axes -> R J.
+        """The body rotated about the world origin.
 
+        Parameters
+        ----------
+        rotation : array_like, shape (3, 3), or scipy.spatial.transform.Rotation
+            A proper rotation: an orthonormal matrix with determinant +1, or a single
+            ``Rotation``.  The same rotation applies to every clump of a batch.
+
+        Returns
+        -------
+        MassProperties
+            The rotated body: centre of mass ``R c``, inertia ``R I R^T``, principal axes
+            ``R J``; mass, volume and principal moments are kept.  ``standard_error`` is None.
+
+        Raises
+        ------
+        ValueError
+            If ``rotation`` is not a (3, 3) matrix or a single Rotation, or not a proper
+            rotation (orthonormal to 1e-10, determinant +1).
+
+        Notes
+        -----
         The standard error of a sampled result is element-wise in the input axes and does not
-        rotate with the body: the result has ``standard_error=None``.
+        rotate with the body, so the result has none.
         """
         R = _rotation_matrix(rotation)
         com = self.center_of_mass @ R.T
@@ -212,8 +309,27 @@ class MassProperties:
                               method=self.method, density=self.density)
 
     def inertia_about(self, point) -> np.ndarray:
-        """Inertia tensor (3, 3) kg m^2 about ``point`` (3,) m, axes parallel to the input axes
-        (parallel-axis theorem: ``I_com + m (|d|^2 1 - d d^T)``, ``d = com - point``)."""
+        """Inertia tensor about another point, axes parallel to the input axes.
+
+        Parameters
+        ----------
+        point : array_like, shape (3,) or (M, 3)
+            The reference point, in m: one for every clump, or one per clump of a batch.
+
+        Returns
+        -------
+        numpy.ndarray, shape (3, 3) or (M, 3, 3)
+            The inertia tensor about ``point``, in kg m^2.
+
+        Raises
+        ------
+        ValueError
+            If ``point`` has another shape.
+
+        Notes
+        -----
+        Parallel-axis theorem: ``I_com + m (|d|^2 1 - d d^T)`` with ``d = com - point``.
+        """
         p = np.asarray(point, dtype=np.float64)
         if p.shape not in ((3,), np.shape(self.center_of_mass)):
             raise ValueError(f"point must have shape (3,) or {np.shape(self.center_of_mass)}, got {p.shape}")
@@ -224,15 +340,25 @@ class MassProperties:
 
     @property
     def orientation(self):
-        """The principal frame as a ``scipy.spatial.transform.Rotation`` (body -> input axes):
+        """The principal frame as a ``scipy.spatial.transform.Rotation`` (body to input axes).
+
         ``orientation.as_matrix() == principal_axes`` (right-handed), so
-        ``inertia == R diag(principal_moments) R^T``.  A stacked Rotation for a batch."""
+        ``inertia == R diag(principal_moments) R^T``.  A stacked Rotation for a batch.
+        """
         from scipy.spatial.transform import Rotation
 
         return Rotation.from_matrix(np.array(self.principal_axes))  # scipy 1.10 needs a writeable buffer
 
     def to_dict(self) -> dict:
-        """Plain-Python view (lists and floats), e.g. for JSON."""
+        """Plain-Python view of the values, e.g. for JSON.
+
+        Returns
+        -------
+        dict
+            The arrays as (nested) lists of floats, keyed by attribute name (SI units), with
+            ``method``, ``density`` and, for a sampled result, ``standard_error`` as a dict of
+            the same form.
+        """
         d = {n: np.asarray(getattr(self, n)).tolist() for n in self._ARRAYS}
         d["method"] = self.method
         d["density"] = self.density
@@ -256,10 +382,26 @@ def _rotation_matrix(rotation) -> np.ndarray:
 
 
 def concatenate(items) -> MassProperties:
-    """Stack MassProperties (single clumps or batches) into one batch, in order.
+    """Stack mass properties (single clumps or batches) into one batch, in order.
 
-    All must come from the same method and density (the batch has one of each); the standard
-    error is kept if every item has one.
+    Parameters
+    ----------
+    items : iterable of MassProperties
+        Results of one method and one density (the batch has one of each); single clumps and
+        batches may be mixed.
+
+    Returns
+    -------
+    MassProperties
+        A batch with the clumps of ``items`` in order.  It has a standard error if every item
+        has one, else None.
+
+    Raises
+    ------
+    ValueError
+        If ``items`` is empty, or the items differ in method or density.
+    TypeError
+        If an item is not a :class:`MassProperties`.
     """
     items = list(items)
     if not items:

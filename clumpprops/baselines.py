@@ -45,7 +45,34 @@ def _inside(x, c, r):
 
 
 def montecarlo_moments(sph: Spheres, density, n_samples=1_000_000, seed=None, chunk=None):
-    """Monte Carlo mass properties with standard errors; returns a MassProperties."""
+    """Monte Carlo mass properties with one-sigma standard errors.
+
+    Parameters
+    ----------
+    sph : clumpprops._input.Spheres
+        The checked, flattened spheres of M clumps (centres in m relative to each clump's
+        origin, radii in m).
+    density : float
+        Solid density of the spheres, in kg/m^3.
+    n_samples : int, optional
+        Samples per clump, 100 to 10^9.
+    seed : int or None, optional
+        Seed of numpy's random generator; None draws fresh entropy.
+    chunk : int or None, optional
+        Samples per clump drawn at once (memory use); None chooses one.
+
+    Returns
+    -------
+    MassProperties
+        The estimates (``method="montecarlo"``) with their :class:`~clumpprops.StandardError`.
+
+    Raises
+    ------
+    ValueError
+        If ``n_samples`` is not an integer in [100, 10^9].
+    ArithmeticError
+        If no sample of some clump falls inside it (too few samples).
+    """
     n_samples = check_count(n_samples, "n_samples", 100, MAX_SAMPLES)
     c, r = _padded(sph)
     M, Nmax = r.shape
@@ -115,7 +142,26 @@ def montecarlo_moments(sph: Spheres, density, n_samples=1_000_000, seed=None, ch
 
 
 def voxel_moments(sph: Spheres, discretization=10):
-    """V, S, Q of YADE 2023.02a's regular-grid scheme (see module docstring)."""
+    """Volume moments by YADE 2023.02a's regular-grid scheme (see the module docstring).
+
+    Parameters
+    ----------
+    sph : clumpprops._input.Spheres
+        The spheres of M clumps, as for :func:`montecarlo_moments`.
+    discretization : int, optional
+        Cells along the smallest extent of a clump's bounding box, 1 to 1000.
+
+    Returns
+    -------
+    V, S, Q : numpy.ndarray, shapes (M,), (M, 3), (M, 3, 3)
+        As :func:`~clumpprops.pairwise.sphere_moments` returns them, for the voxel estimate.
+
+    Raises
+    ------
+    ValueError
+        If ``discretization`` is not an integer in [1, 1000], or a clump's grid would have
+        more than 10^9 cells.
+    """
     d = check_count(discretization, "discretization", 1, MAX_DISCRETIZATION)
     V, S, Q = sphere_moments(sph)  # YADE's path for clumps without a real overlap
     c, r = _padded(sph)

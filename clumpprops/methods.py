@@ -22,8 +22,28 @@ MAX_VOXEL_CELLS = 10**9
 
 
 def check_count(value, name, lo, hi) -> int:
-    """value as an int in [lo, hi], or ValueError naming the problem (booleans, strings and
-    non-integral numbers included)."""
+    """An integer option checked against its stated range.
+
+    Parameters
+    ----------
+    value : int or float
+        The value given; a float must be integral (``1e6`` is accepted).
+    name : str
+        The option's name, for the error message.
+    lo, hi : int
+        The accepted range, both ends included.
+
+    Returns
+    -------
+    int
+        ``value`` as an int.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is a bool, not a real number (strings included), not integral, or outside
+        [lo, hi]; the message names the problem.
+    """
     ok_type = isinstance(value, numbers.Integral) or (isinstance(value, numbers.Real) and float(value).is_integer())
     if isinstance(value, bool) or not ok_type:
         raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
@@ -37,39 +57,87 @@ def check_count(value, name, lo, hi) -> int:
 
 @dataclass(frozen=True)
 class Exact:
-    """The union of the spheres, any overlap pattern (the compiled exact core)."""
+    """The exact method: the union of the spheres, any overlap pattern.
+
+    Computed by the compiled exact core (docs/exact_method.md); round-off accurate.  The same as
+    ``method="exact"``, the default.
+    """
 
     name = "exact"
 
     def options(self) -> dict:
+        """The method's keyword options for :func:`clumpprops.mass_properties`.
+
+        Returns
+        -------
+        dict
+            Empty: this method takes no options.
+        """
         return {}
 
 
 @dataclass(frozen=True)
 class Pairwise:
-    """The paper's eqs. (1)-(7); ClumpGeometryError where three spheres share a region."""
+    """The pairwise overlap correction of the paper (its equations 1-7).
+
+    The same as ``method="pairwise"``.  Exact where no point lies in three spheres;
+    :func:`clumpprops.mass_properties` raises :class:`~clumpprops.ClumpGeometryError` where
+    three spheres share a region.
+    """
 
     name = "pairwise"
 
     def options(self) -> dict:
+        """The method's keyword options for :func:`clumpprops.mass_properties`.
+
+        Returns
+        -------
+        dict
+            Empty: this method takes no options.
+        """
         return {}
 
 
 @dataclass(frozen=True)
 class Sum:
-    """Overlaps counted twice (YADE appendClumped, LAMMPS fix rigid)."""
+    """The summed spheres, overlaps counted twice.
+
+    The same as ``method="sum"``: what YADE's ``appendClumped`` (discretization 0) and LAMMPS'
+    ``fix rigid`` compute.
+    """
 
     name = "sum"
 
     def options(self) -> dict:
+        """The method's keyword options for :func:`clumpprops.mass_properties`.
+
+        Returns
+        -------
+        dict
+            Empty: this method takes no options.
+        """
         return {}
 
 
 @dataclass(frozen=True)
 class MonteCarlo:
-    """Uniform samples in each clump's bounding box; sets ``standard_error``.
+    """Monte Carlo estimate: uniform samples in each clump's bounding box.
 
-    ``n_samples`` per clump, 100 to ``MAX_SAMPLES`` (10^9)."""
+    The same as ``method="montecarlo"`` with these options.  The result has a
+    :class:`~clumpprops.StandardError`.
+
+    Parameters
+    ----------
+    n_samples : int, optional
+        Samples per clump, 100 to ``MAX_SAMPLES`` (10^9).
+    seed : int or None, optional
+        Seed of numpy's random generator; None draws fresh entropy.
+
+    Raises
+    ------
+    ValueError
+        If ``n_samples`` is not an integer in [100, 10^9].
+    """
 
     n_samples: int = 1_000_000
     seed: Optional[int] = None
@@ -79,6 +147,13 @@ class MonteCarlo:
         check_count(self.n_samples, "n_samples", 100, MAX_SAMPLES)
 
     def options(self) -> dict:
+        """The method's keyword options for :func:`clumpprops.mass_properties`.
+
+        Returns
+        -------
+        dict
+            The fields of this object by name.
+        """
         return asdict(self)
 
 
@@ -86,8 +161,21 @@ class MonteCarlo:
 class Voxel:
     """YADE 2023.02a's regular-grid scheme (``O.bodies.clump(ids, discretization)``).
 
-    ``discretization`` 1 to ``MAX_DISCRETIZATION`` (1000) cells along the smallest extent;
-    a grid beyond ``MAX_VOXEL_CELLS`` (10^9) cells per clump is refused too."""
+    The same as ``method="voxel"`` with this option.
+
+    Parameters
+    ----------
+    discretization : int, optional
+        Cells along the smallest extent of the clump's bounding box, 1 to
+        ``MAX_DISCRETIZATION`` (1000).
+
+    Raises
+    ------
+    ValueError
+        If ``discretization`` is not an integer in [1, 1000].  A grid of more than
+        ``MAX_VOXEL_CELLS`` (10^9) cells for one clump is refused with a ValueError when the
+        properties are computed.
+    """
 
     discretization: int = 10
     name = "voxel"
@@ -96,6 +184,13 @@ class Voxel:
         check_count(self.discretization, "discretization", 1, MAX_DISCRETIZATION)
 
     def options(self) -> dict:
+        """The method's keyword options for :func:`clumpprops.mass_properties`.
+
+        Returns
+        -------
+        dict
+            The fields of this object by name.
+        """
         return asdict(self)
 
 

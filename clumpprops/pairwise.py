@@ -31,11 +31,32 @@ from ._pairs import distance_and_axis, overlapping_pairs
 
 
 class ClumpGeometryError(ValueError):
-    """The clump's geometry is outside what the chosen method can compute exactly."""
+    """The clump's geometry is outside what the chosen method can compute exactly.
+
+    A :class:`ValueError`: raised by :func:`clumpprops.mass_properties` with
+    ``method="pairwise"`` where three spheres of a clump share a region (the message names
+    them); ``method="exact"`` computes such clumps.
+    """
 
 
 def sphere_moments(sph: Spheres):
-    """Per-clump V (M,), S (M,3), Q (M,3,3) of the spheres summed with overlaps counted twice."""
+    """Volume moments of the summed spheres, overlaps counted twice (``method="sum"``).
+
+    Parameters
+    ----------
+    sph : clumpprops._input.Spheres
+        The checked, flattened spheres of M clumps (centres in m relative to each clump's
+        origin, radii in m).
+
+    Returns
+    -------
+    V : numpy.ndarray, shape (M,)
+        Volume of each clump, in m^3.
+    S : numpy.ndarray, shape (M, 3)
+        First moment about the clump's origin, in m^4.
+    Q : numpy.ndarray, shape (M, 3, 3)
+        Second moment about the clump's origin, in m^5.
+    """
     r, c = sph.radii, sph.centers
     v = (4.0 / 3.0) * np.pi * r * r * r
     V = segment_sum(v, sph)
@@ -51,12 +72,26 @@ def sphere_moments(sph: Spheres):
 
 
 def cap_moments(R, l):
-    """Moments of a spherical cap of height l (m) cut from a sphere of radius R (m).
+    """Moments of a spherical cap, per unit density.
 
-    Returns volume (eq. 1 / rho), the distance b of its centroid from the cap's base
-    plane (towards the apex), its axial variance sigma_a = int (s - s_bar)^2 dV and its
-    transverse second moment sigma_t = int x^2 dV (so the axial moment of inertia,
-    eq. 3, is 2 rho sigma_t), all per unit density.  Arrays broadcast.
+    Parameters
+    ----------
+    R : float or numpy.ndarray
+        Radius of the sphere, in m.
+    l : float or numpy.ndarray
+        Height of the cap, in m, 0 <= l <= 2 R (broadcasts with ``R``).
+
+    Returns
+    -------
+    V : numpy.ndarray
+        Volume, in m^3 (eq. 1 divided by the density).
+    b : numpy.ndarray
+        Distance of the centroid from the cap's base plane, towards the apex, in m.
+    sigma_a : numpy.ndarray
+        Axial variance ``int (s - s_bar)^2 dV``, in m^5.
+    sigma_t : numpy.ndarray
+        Transverse second moment ``int x^2 dV``, in m^5 (the axial moment of inertia, eq. 3,
+        is ``2 rho sigma_t``).
     """
     V = np.pi * l * l * (3.0 * R - l) / 3.0
     b = l * (4.0 * R - l) / (4.0 * (3.0 * R - l))
@@ -72,11 +107,29 @@ def cap_moments(R, l):
 
 
 def lens_moments(ra, rb, ca, cb, D, e):
-    """Moments of each overlap region (lens, or the smaller sphere if one contains the other).
+    """Moments of the overlap region of each pair of spheres.
 
-    Pairs of spheres with radii ra, rb (P,), centres ca, cb (P,3) relative to the clump
-    origin, distance D (P,) and unit axis e = (cb - ca)/D (P,3).  Returns volume (P,), centroid (P,3) relative to the clump origin, and the central
-    second moment as sigma_t (P,) and sigma_ax (P,): C = sigma_t 1 + sigma_ax e e^T.
+    The region is a lens, or the smaller sphere where one sphere contains the other.
+
+    Parameters
+    ----------
+    ra, rb : numpy.ndarray, shape (P,)
+        Radii of the two spheres of each pair, in m.
+    ca, cb : numpy.ndarray, shape (P, 3)
+        Their centres relative to the clump origin, in m.
+    D : numpy.ndarray, shape (P,)
+        Distance between the centres, in m.
+    e : numpy.ndarray, shape (P, 3)
+        Unit axis ``(cb - ca) / D``.
+
+    Returns
+    -------
+    volume : numpy.ndarray, shape (P,)
+        Volume of each region, in m^3.
+    centroid : numpy.ndarray, shape (P, 3)
+        Its centroid relative to the clump origin, in m.
+    sigma_t, sigma_ax : numpy.ndarray, shape (P,)
+        Its central second moment ``C = sigma_t 1 + sigma_ax e e^T``, in m^5.
     """
     big_a = ra >= rb
     r_small = np.where(big_a, rb, ra)
@@ -109,8 +162,27 @@ def lens_moments(ra, rb, ca, cb, D, e):
 
 
 def check_no_triple_overlap(sph: Spheres, a, b, D, e):
-    """Raise ClumpGeometryError if any three spheres of a clump share an interior point.
+    """Raise if any three spheres of a clump share an interior point.
 
+    Parameters
+    ----------
+    sph : clumpprops._input.Spheres
+        The checked, flattened spheres of M clumps (centres in m relative to each clump's
+        origin, radii in m).
+    a, b : numpy.ndarray of int, shape (P,)
+        Global indices (into ``sph``) of the two spheres of each overlapping pair, ``a < b``.
+    D : numpy.ndarray, shape (P,)
+        Distance between their centres, in m.
+    e : numpy.ndarray, shape (P, 3)
+        Unit axis from sphere ``a`` to sphere ``b``.
+
+    Raises
+    ------
+    ClumpGeometryError
+        Naming the first triple found (and the clump, for a batch) and the number of triples.
+
+    Notes
+    -----
     For every triangle (i, j, k) of mutually overlapping spheres and each of its three
     balls, say i, the distance from c_i to the overlap region L_jk (a convex lens, or the
     smaller ball if one contains the other) is computed from its candidate closest points
@@ -226,7 +298,27 @@ def _distance_to_overlap(sph: Spheres, p, j, k, D, e):
 
 
 def pairwise_moments(sph: Spheres, check=True):
-    """Per-clump V, S, Q of the union by the paper's eqs. (4)-(7), with the triple-overlap check."""
+    """Volume moments of the union by the paper's eqs. (4)-(7) (``method="pairwise"``).
+
+    Parameters
+    ----------
+    sph : clumpprops._input.Spheres
+        The checked, flattened spheres of M clumps (centres in m relative to each clump's
+        origin, radii in m).
+    check : bool, optional
+        Run :func:`check_no_triple_overlap` (the equations are exact only without triple
+        overlaps).
+
+    Returns
+    -------
+    V, S, Q : numpy.ndarray, shapes (M,), (M, 3), (M, 3, 3)
+        As :func:`sphere_moments` returns them, for the union.
+
+    Raises
+    ------
+    ClumpGeometryError
+        With ``check``, where three spheres of a clump share a region.
+    """
     V, S, Q = sphere_moments(sph)
     if sph.regular and 2 <= sph.regular <= 16 and (not check or sph.regular == 2):
         # regular batch of small clumps: every pair in a fixed (M, P) layout, no gathers by

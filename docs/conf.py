@@ -58,6 +58,12 @@ autosummary_generate = False          # summaries are tables on the module pages
 numpydoc_show_class_members = False   # autodoc lists the members itself
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
+# every documented public callable has its numpydoc sections (-W turns a missing one into an error):
+# GL08 a docstring, PR01 every parameter documented, PR02 no unknown one, RT01 Returns where it returns
+numpydoc_validation_checks = {"GL08", "PR01", "PR02", "RT01"}
+# Not validated: private and dunder members, and the names whose docstrings are not in numpydoc
+# form (clumpprops.io; mass_properties, whose **options has no entry): drop a pattern once they are.
+numpydoc_validation_exclude = {r"\._[^.]*$", r"^clumpprops\.io\.", r"^clumpprops\.mass_properties$"}
 
 html_theme = "furo"
 html_title = f"clumpprops {release}"

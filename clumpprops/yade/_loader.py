@@ -16,7 +16,9 @@ import numpy as np
 class ClumpAdapterError(ValueError):
     """Bad input to the YADE adapter; the message names the offending body id.
 
-    Raised before anything in the scene is modified.
+    A :class:`ValueError`, raised before anything in the scene is modified.  Also raised where
+    YADE refuses an operation the adapter asks of it (its warning becomes the message), and where
+    YADE's state after a build differs from the target.
     """
 
 

@@ -198,11 +198,37 @@ def _no_gc(n):
 
 
 def append_clumps(clumps, method=DEFAULT_METHOD):
-    """Append many clumps at once (one library call); returns ``[(clump_id, member_ids), ...]``.
+    """Append many exact clumps at once (one library call for the whole batch).
 
-    ``clumps`` is a list of lists of sphere bodies (as made by ``utils.sphere``), one list per
-    clump.  ``member_ids`` are the sphere members only (the correction member of each clump is
-    ``correction_id(clump_id)``).  Validates everything before the scene is touched.
+    Parameters
+    ----------
+    clumps : iterable of lists of yade.Body
+        One list of sphere bodies per clump, as made by ``utils.sphere`` and not yet in a
+        scene; the spheres of a clump share one density (their material's, in kg/m^3).
+    method : str, optional
+        Name of the method of :func:`clumpprops.mass_properties` that gives the clump's
+        properties (``"exact"``, the default, ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or
+        ``"voxel"``, with their default options); recorded with the correction.
+
+    Returns
+    -------
+    list of (int, list of int)
+        ``(clump_id, member_ids)`` per clump, in input order.  ``member_ids`` are the sphere
+        members only; the correction member of each clump is ``correction_id(clump_id)``.
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything in the scene changes, if a clump is not a list of bodies or is empty,
+        an item is not a yade Body, is already in a scene, is given twice, is not a sphere, has
+        no material or a radius that is not positive, the densities of a clump differ or are
+        not positive, or the method cannot compute a clump.  The message names the clump
+        (``clump k of the input``) and the item.  Also if YADE's state after the build differs
+        from the target (relative 1e-10).
+
+    See Also
+    --------
+    append_clump : The same for one clump.
     """
     clumps = list(clumps)
     with _no_gc(len(clumps)):
@@ -270,13 +296,36 @@ def _append_clumps(clumps, method):
 
 
 def append_clump(spheres, method=DEFAULT_METHOD):
-    """Drop-in for ``O.bodies.appendClumped(spheres)``: returns ``(clump_id, member_ids)``.
+    """Drop-in for ``O.bodies.appendClumped(spheres)`` that builds an exact clump.
 
     The clump's ``state.mass``, ``state.pos`` and inertia (``state.inertia``, ``state.ori``)
-    are the library's values for the union of the spheres (``method``, default exact).
-    ``member_ids`` lists the spheres; the clump also holds one collision-free correction
-    member (see the package docstring).  The steps of :func:`append_clumps` for one clump, without
-    the bookkeeping of a batch (this is the call a script makes once per clump).
+    are the library's values for the union of the spheres.
+
+    Parameters
+    ----------
+    spheres : list of yade.Body
+        Sphere bodies not yet in a scene (as made by ``utils.sphere``), of one density.
+    method : str, optional
+        The method, as for :func:`append_clumps` (default ``"exact"``).
+
+    Returns
+    -------
+    clump_id : int
+        Id of the new clump body.
+    member_ids : list of int
+        Ids of the sphere members.  The clump also holds one collision-free correction member
+        (see the package docstring), not listed here.
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything in the scene changes, for the bad input :func:`append_clumps` refuses;
+        also if YADE's state after the build differs from the target (relative 1e-10).
+
+    Notes
+    -----
+    The steps of :func:`append_clumps` for one clump, without the bookkeeping of a batch (this
+    is the call a script makes once per clump).
     """
     Y = _Y.load()
     checked = _check_new_spheres(Y, 0, spheres, set())
@@ -313,10 +362,33 @@ def _method_of(cid, method):
 def correct_clumps(clump_ids, method=DEFAULT_METHOD):
     """Make existing clumps exact (built by ``clump``, ``appendClumped``, ``replaceByClumps``, ...).
 
+    Parameters
+    ----------
+    clump_ids : int or iterable of int
+        Ids of clumps of spheres in ``O.bodies`` (an id given twice is corrected once).
+    method : str, optional
+        The method, as for :func:`append_clumps` (default ``"exact"``).
+
+    Returns
+    -------
+    list of int
+        Ids of the correction members, one per distinct clump, in input order.
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything in the scene changes, if an id is not an integer or not a body, the body
+        is not a clump, a member is neither a sphere with a material nor a correction, the
+        spheres' densities differ or are not positive, or the method cannot compute a clump
+        (e.g. ``"pairwise"`` with a triple overlap).  Also if YADE's state after the update
+        differs from the target (relative 1e-10).
+
+    Notes
+    -----
     Idempotent: a clump already corrected gets its correction recomputed for the spheres'
     current positions.  The rigid-body velocity field is kept (members keep their velocities;
-    the clump's velocity is re-referred to the new centre of mass).  Returns the correction
-    member ids.  Every id is checked before anything is modified.
+    the clump's velocity is re-referred to the new centre of mass).  Every id is checked
+    before anything is modified.
     """
     ids = [clump_ids] if np.ndim(clump_ids) == 0 else list(clump_ids)
     plan, seen = [], set()
@@ -330,13 +402,48 @@ def correct_clumps(clump_ids, method=DEFAULT_METHOD):
 
 
 def correct_clump(clump_id, method=DEFAULT_METHOD):
-    """Make one existing clump exact; returns the id of its correction member."""
+    """Make one existing clump exact.
+
+    Parameters
+    ----------
+    clump_id : int
+        Id of a clump of spheres in ``O.bodies``.
+    method : str, optional
+        The method, as for :func:`append_clumps` (default ``"exact"``).
+
+    Returns
+    -------
+    int
+        Id of the clump's correction member.
+
+    Raises
+    ------
+    ClumpAdapterError
+        For the bad input :func:`correct_clumps` refuses, before anything changes.
+    """
     return correct_clumps([clump_id], method=method)[0]
 
 
 
 def correct_all_clumps(method=DEFAULT_METHOD):
-    """Correct every clump in the scene (all must be clumps of spheres); returns their ids."""
+    """Make every clump in the scene exact.
+
+    Parameters
+    ----------
+    method : str, optional
+        The method, as for :func:`append_clumps` (default ``"exact"``).
+
+    Returns
+    -------
+    list of int
+        Ids of the clumps (not of their corrections), in ``O.bodies`` order.
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything changes, if some clump is not a clump of spheres of one density (see
+        :func:`correct_clumps`).
+    """
     Y = _Y.load()
     ids = [b.id for b in Y.O.bodies if b is not None and b.isClump]
     correct_clumps(ids, method=method)
@@ -345,11 +452,34 @@ def correct_all_clumps(method=DEFAULT_METHOD):
 
 
 def replace_by_clumps(templates, amounts, discretization=0, method=DEFAULT_METHOD):
-    """Drop-in for ``O.bodies.replaceByClumps(templates, amounts, discretization)``, producing exact clumps.
+    """Drop-in for ``O.bodies.replaceByClumps(templates, amounts, discretization)`` that makes exact clumps.
 
-    YADE places the clumps (same rules, same return value ``[(clump_id, [member_ids]), ...]``);
-    each new clump is then corrected (``discretization`` is irrelevant for them: the result is
-    the library's).  Clumps already in the scene are not touched.
+    Parameters
+    ----------
+    templates : list of yade clump templates
+        As for YADE (``clumpTemplate`` objects).
+    amounts : list of float
+        Fraction of the spheres replaced by each template, as for YADE.
+    discretization : int, optional
+        Accepted for compatibility and irrelevant: the new clumps get the library's values.
+    method : str, optional
+        The method, as for :func:`append_clumps` (default ``"exact"``).
+
+    Returns
+    -------
+    list of (int, list of int)
+        YADE's return value: ``(clump_id, member_ids)`` per new clump.
+
+    Raises
+    ------
+    ClumpAdapterError
+        If YADE refuses the replacement (its warning becomes the message), or a new clump
+        cannot be corrected (see :func:`correct_clumps`).
+
+    Notes
+    -----
+    YADE places the clumps (same rules); each new clump is then corrected.  Clumps already in
+    the scene are not touched.
     """
     Y = _Y.load()
     before = {b.id for b in Y.O.bodies if b is not None and b.isClump}

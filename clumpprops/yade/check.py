@@ -12,18 +12,32 @@ from .scene import _clump_density, _geometry, _has_correction, _split_members, _
 
 @dataclass
 class CheckReport:
-    """Result of :func:`check`.
+    """Result of :func:`check`: the scene's clumps sorted by what the check found.
 
-    ``exact``: corrected clumps whose YADE state equals the library's (within ``rtol``);
-    ``uncorrected``: clumps without a correction and without a registry entry (YADE's own, not an
-    error); ``stale``: [(clump id, reason)] corrected clumps that no longer match (state off, sphere
-    set changed since the correction, correction lost); ``orphaned``: [(body id, reason)] corrections
-    without their clump (a free correction body, a registry entry for a missing clump);
-    ``invalid``: [(body id, reason)] dynamic bodies that are not clump members with a mass or a
-    principal moment that is not positive (YADE divides by them; a correction left free by YADE's
-    own erase is one); ``masks``: [(clump id, reason)] corrections whose mask is not the union of
-    their spheres' masks (a mask changed after the build: ``cy.correct_clump`` sets it again);
-    ``max_error``: the largest relative error found over the exact and stale clumps.
+    Every parameter is an attribute of the same name; ``str(report)`` is a readable summary.
+
+    Parameters
+    ----------
+    exact : list of int, optional
+        Ids of the corrected clumps whose YADE state equals the library's (within ``rtol``).
+    uncorrected : list of int, optional
+        Ids of the clumps without a correction and without a registry entry (YADE's own, not an
+        error).
+    stale : list of (int, str), optional
+        ``(clump id, reason)`` of corrected clumps that no longer match (state off, sphere set
+        changed since the correction, correction lost).
+    orphaned : list of (int, str), optional
+        ``(body id, reason)`` of corrections without their clump (a free correction body, a
+        registry entry for a missing clump).
+    invalid : list of (int, str), optional
+        ``(body id, reason)`` of dynamic bodies that are not clump members with a mass or a
+        principal moment that is not positive (YADE divides by them; a correction left free by
+        YADE's own erase is one).
+    masks : list of (int, str), optional
+        ``(clump id, reason)`` of corrections whose mask is not the union of their spheres'
+        masks (a mask changed after the build: :func:`correct_clump` sets it again).
+    max_error : float, optional
+        The largest relative error found over the exact and stale clumps (dimensionless).
     """
 
     exact: list = field(default_factory=list)
@@ -36,6 +50,7 @@ class CheckReport:
 
     @property
     def ok(self) -> bool:
+        """True if nothing is stale, orphaned, invalid or masked wrongly (uncorrected clumps are fine)."""
         return not (self.stale or self.orphaned or self.invalid or self.masks)
 
     def __str__(self):
@@ -53,6 +68,27 @@ class CheckReport:
 def check(rtol=1e-9, raise_on_error=False):
     """Verify every clump of the scene against its exact properties; report stale or orphaned corrections.
 
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative tolerance of mass, centre of mass and inertia tensor (see
+        :func:`clump_errors` for the scales).
+    raise_on_error : bool, optional
+        Raise instead of returning a report that is not ``ok``.
+
+    Returns
+    -------
+    CheckReport
+        The clumps and bodies sorted by what was found.
+
+    Raises
+    ------
+    ClumpAdapterError
+        With ``raise_on_error=True``, if the report is not ``ok``; the message lists the
+        problems.
+
+    Notes
+    -----
     For each corrected clump: the correction is the one recorded in the registry
     (``O.tags["clumpprops.corrections*"]``, saved with the scene), the sphere set has the recorded
     fingerprint (ids, radii, densities), and YADE's mass, centre of mass and inertia tensor equal
@@ -63,7 +99,6 @@ def check(rtol=1e-9, raise_on_error=False):
     hold a correction with no sphere or with a non-sphere member (stale), dynamic bodies outside
     clumps with a mass or principal moment that is not positive (``invalid``) and corrections whose
     mask is not the union of their spheres' masks (``masks``).
-    ``raise_on_error=True`` raises :class:`ClumpAdapterError` listing them.
     """
     Y = _Y.load()
     reg = _registry()

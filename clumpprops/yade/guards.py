@@ -59,13 +59,27 @@ def install_guards():
 
 
 def guards_installed() -> bool:
-    """True once :func:`install_guards` has replaced YADE's ``O.bodies`` methods in this process."""
+    """Whether the guards are installed in this process.
+
+    Returns
+    -------
+    bool
+        True once :func:`install_guards` has replaced YADE's ``O.bodies`` methods.
+    """
     return bool(_RAW)
 
 
 @contextlib.contextmanager
 def unguarded():
-    """YADE's own ``O.bodies`` methods inside the block, as if the guards were not installed (tests, debugging)."""
+    """Context manager: YADE's own ``O.bodies`` methods inside the block, as if the guards were not installed.
+
+    For tests and debugging.  Blocks nest; the guards are active again when the outermost one
+    ends.  Without installed guards it changes nothing.
+
+    Yields
+    ------
+    None
+    """
     _bypass[0] += 1
     try:
         yield

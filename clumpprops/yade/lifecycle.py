@@ -20,11 +20,32 @@ from .scene import _body, _clump_density, _has_correction, _keep_field, _split_m
 def release(body_id, clump_id, discretization=0):
     """``O.bodies.releaseFromClump(body_id, clump_id)`` that keeps the clump exact.
 
+    Parameters
+    ----------
+    body_id : int
+        Id of the sphere member to release.
+    clump_id : int
+        Id of its clump.
+    discretization : int, optional
+        Ignored for a corrected clump (its result is exact); passed to YADE for an uncorrected
+        one.
+
+    Returns
+    -------
+    None
+        As YADE's ``releaseFromClump``.
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything changes, where YADE would refuse (an id is not a body, ``clump_id`` is
+        not a clump of spheres, the body is not a member, fewer than two spheres would remain)
+        or for the correction member itself.
+
+    Notes
+    -----
     The released sphere becomes a free body moving with the clump's rigid-body velocity field;
-    the clump is corrected for its remaining spheres.  Raises :class:`ClumpAdapterError`
-    (nothing changed) where YADE would refuse (the body is not a member; fewer than two spheres
-    would remain) or for the correction member itself.  ``discretization`` is ignored for a
-    corrected clump (exact) and passed to YADE for an uncorrected one.
+    the clump is corrected for its remaining spheres with the method it was corrected with.
     """
     Y = _Y.load()
     bid = _body(body_id).id
@@ -57,12 +78,32 @@ def release(body_id, clump_id, discretization=0):
 def add_to_clump(body_ids, clump_id, discretization=0, method=None):
     """``O.bodies.addToClump(body_ids, clump_id)`` with an exact result.
 
-    ``body_ids``: standalone spheres and/or clumps of spheres (a clump's spheres join, its body is
-    erased as YADE does; its correction is dropped).  All spheres must share the clump's density.
-    The clump keeps its rigid-body velocity field (the added bodies adopt it) and is corrected for
-    all its spheres (``method``: the clump's own, default exact).  Raises (nothing changed) for a
-    body that does not exist, is already in this clump, is a member of another clump, is not a
-    sphere, or has another density.
+    Parameters
+    ----------
+    body_ids : int or iterable of int
+        Standalone spheres and/or clumps of spheres.  A clump's spheres join and its body is
+        erased, as YADE does; its correction is dropped.  All spheres must share the clump's
+        density.
+    clump_id : int
+        Id of the clump to add to.
+    discretization : int, optional
+        Accepted for compatibility with YADE's call and irrelevant: the clump is corrected.
+    method : str, optional
+        Name of the method of :func:`clumpprops.mass_properties` for the grown clump; None (the
+        default) keeps the one the clump was corrected with (``"exact"`` for an uncorrected
+        clump).
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything changes, if ``body_ids`` is empty, a body does not exist, is already in
+        this clump, is a member of another clump, is not a sphere or a clump of spheres, or has
+        another density than the clump.
+
+    Notes
+    -----
+    The clump keeps its rigid-body velocity field (the added bodies adopt it) and is corrected
+    for all its spheres.
     """
     Y = _Y.load()
     cb, spheres, corr = _plan_entry(clump_id)
@@ -120,15 +161,34 @@ def add_to_clump(body_ids, clump_id, discretization=0, method=None):
 def erase(body_id, eraseClumpMembers=False):
     """``O.bodies.erase(body_id, eraseClumpMembers)`` that never leaves a correction behind.
 
+    Mirrors ``O.bodies.erase(id, eraseClumpMembers)``: the keyword keeps YADE's camelCase name.
+
+    Parameters
+    ----------
+    body_id : int
+        Id of the body to erase: a clump, a clump member or any other body.
+    eraseClumpMembers : bool, optional
+        For a clump: erase its spheres too (else they become free bodies), as in YADE.
+
+    Returns
+    -------
+    bool
+        YADE's return value (True).
+
+    Raises
+    ------
+    ClumpAdapterError
+        Before anything changes, if ``body_id`` is not an integer or not a body, or is a
+        correction member (erase its clump or its spheres instead).
+
+    Notes
+    -----
     * a corrected clump: its correction is erased with it; its spheres become free bodies (or
       are erased too with ``eraseClumpMembers=True``), as in YADE;
     * a sphere of a corrected clump: erased, and the clump is corrected for the spheres left
       (the clump goes when its last sphere goes);
     * the correction member itself: refused (erase the clump, or release spheres instead);
     * anything else: YADE's erase.
-
-    Returns YADE's return value (True).  Mirrors ``O.bodies.erase(id, eraseClumpMembers)``: the
-    keyword keeps YADE's camelCase name.
     """
     Y = _Y.load()
     b = _body(body_id)
@@ -188,10 +248,27 @@ def _erase_clump(Y, cid, sphere_ids, corr_id):
 def update_clump_properties(excludeList=(), discretization=5):
     """``O.bodies.updateClumpProperties(excludeList, discretization)`` that keeps corrected clumps exact.
 
-    Corrected clumps (not in ``excludeList``) are recomputed exactly for where their spheres are
-    (``discretization`` is irrelevant for them); every other clump gets YADE's own update with
-    ``discretization``.  Mirrors ``O.bodies.updateClumpProperties(excludeList, discretization)``: the
-    keyword keeps YADE's camelCase name.
+    Mirrors ``O.bodies.updateClumpProperties(excludeList, discretization)``: the keyword keeps
+    YADE's camelCase name.
+
+    Parameters
+    ----------
+    excludeList : iterable of int, optional
+        Ids of clumps left as they are.
+    discretization : int, optional
+        YADE's discretization for the clumps that are not corrected (0 sums the spheres); YADE's
+        default, 5.
+
+    Raises
+    ------
+    ClumpAdapterError
+        If a corrected clump is no longer a clump of spheres of one density, or YADE's state
+        after the update differs from the target.
+
+    Notes
+    -----
+    Corrected clumps not in ``excludeList`` are recomputed exactly for where their spheres are,
+    each with the method it was corrected with; every other clump gets YADE's own update.
     """
     Y = _Y.load()
     excl = {int(i) for i in excludeList}

@@ -11,8 +11,20 @@ from ._loader import ClumpAdapterError, _rotation, _vec, _Y
 
 
 def is_correction(body) -> bool:
-    """True if ``body`` is a correction member made by this package.
+    """Whether a body is a correction member made by this package.
 
+    Parameters
+    ----------
+    body : yade.Body or None
+        Any body of the scene (None, an erased slot, gives False).
+
+    Returns
+    -------
+    bool
+        True for a correction member.
+
+    Notes
+    -----
     A correction is a clump member whose shape is exactly the base class ``Shape``
     (no YADE body has that for any other purpose: it has no bound, collision or
     rendering functor) and which is not bounded.
@@ -97,7 +109,33 @@ def _clump_body(clump_id):
 
 
 def exact_properties(clump_id, method=DEFAULT_METHOD):
-    """The library's :class:`~clumpprops.MassProperties` of a clump's member spheres, where they are now."""
+    """The library's mass properties of a clump's member spheres, where they are now.
+
+    Parameters
+    ----------
+    clump_id : int
+        Id of a clump in ``O.bodies``.
+    method : str, optional
+        Name of the method of :func:`clumpprops.mass_properties` (``"exact"``, the default,
+        ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or ``"voxel"``).
+
+    Returns
+    -------
+    MassProperties
+        The properties of the union of the sphere members (the correction member left out),
+        with their material's density.
+
+    Raises
+    ------
+    ClumpAdapterError
+        If ``clump_id`` is not an integer, not a body or not a clump, or the clump has a member
+        that is neither a sphere with a material nor a correction, no sphere member, or more
+        than one correction.
+        Also if the spheres' densities differ or are not positive.
+    ValueError
+        If the method cannot compute the clump (e.g. :class:`~clumpprops.ClumpGeometryError`
+        for ``"pairwise"`` with a triple overlap).
+    """
     cb = _clump_body(clump_id)
     spheres, _ = _split_members(cb)
     rho = _clump_density(f"clump #{cb.id}", spheres)
@@ -106,13 +144,47 @@ def exact_properties(clump_id, method=DEFAULT_METHOD):
 
 
 def correction_id(clump_id):
-    """Id of the clump's correction member, or None if the clump is not corrected."""
+    """Id of a clump's correction member.
+
+    Parameters
+    ----------
+    clump_id : int
+        Id of a clump in ``O.bodies``.
+
+    Returns
+    -------
+    int or None
+        The id, or None if the clump is not corrected.
+
+    Raises
+    ------
+    ClumpAdapterError
+        If ``clump_id`` is not an integer, not a body or not a clump, or the clump has a member
+        that is neither a sphere with a material nor a correction, no sphere member, or more
+        than one correction.
+    """
     _, corr = _split_members(_clump_body(clump_id))
     return None if corr is None else corr.id
 
 
 def sphere_member_ids(clump_id):
-    """Ids of the clump's sphere members (ascending), without the correction member."""
+    """Ids of a clump's sphere members, without the correction member.
+
+    Parameters
+    ----------
+    clump_id : int
+        Id of a clump in ``O.bodies``.
+
+    Returns
+    -------
+    list of int
+        The ids, ascending.
+
+    Raises
+    ------
+    ClumpAdapterError
+        As :func:`correction_id`.
+    """
     spheres, _ = _split_members(_clump_body(clump_id))
     return [b.id for b in spheres]
 
@@ -158,10 +230,27 @@ def _mismatch(cid, e_m, e_c, e_i, rtol):
 
 
 def clump_errors(clump_id, method=DEFAULT_METHOD):
-    """Relative differences between the clump's YADE state and the library, for checking.
+    """Relative differences between a clump's YADE state and the library's values, for checking.
 
-    Returns a dict: ``mass`` ``|dm|/m``; ``center_of_mass`` ``|dc|`` / clump radius of gyration;
-    ``inertia`` max-abs of (R diag(state.inertia) R^T - I_exact) / max principal moment.
+    Parameters
+    ----------
+    clump_id : int
+        Id of a clump in ``O.bodies``.
+    method : str, optional
+        The method of the library's values, as for :func:`exact_properties`.
+
+    Returns
+    -------
+    dict
+        ``"mass"``: ``|dm| / m``; ``"center_of_mass"``: ``|dc|`` divided by the clump's radius
+        of gyration; ``"inertia"``: the largest absolute element of
+        ``R diag(state.inertia) R^T - I_exact`` divided by the largest principal moment.  All
+        are floats.
+
+    Raises
+    ------
+    ClumpAdapterError, ValueError
+        As :func:`exact_properties`.
     """
     mp = exact_properties(clump_id, method=method)
     target = [float(mp.mass), *mp.center_of_mass.tolist(), *mp.inertia.ravel().tolist(),
@@ -188,8 +277,15 @@ def set_clump_velocity(clump_id, vel=None, ang_vel=None):
     ----------
     clump_id : int
         Id of the body (a clump, or any body).
-    vel, ang_vel : array_like (3,), optional
-        Linear and angular velocity; ``None`` leaves it as it is.
+    vel : array_like, shape (3,), optional
+        Linear velocity of the centre of mass, in m/s; None leaves it as it is.
+    ang_vel : array_like, shape (3,), optional
+        Angular velocity, in rad/s; None leaves it (and ``angMom``) as it is.
+
+    Raises
+    ------
+    ClumpAdapterError
+        If ``clump_id`` is not an integer or not a body.
     """
     Y = _Y.load()
     b = _body(clump_id)

@@ -10,13 +10,48 @@ from .build import append_clumps
 def text_clumps(fileName, shift=None, discretization=0, orientation=None, scale=1.0, method=DEFAULT_METHOD, **kw):
     """Drop-in for ``ymport.textClumps(fileName, shift, discretization, orientation, scale, **kw)``: exact clumps.
 
-    Same arguments in the same order (``discretization`` is accepted for compatibility and
-    irrelevant: the clumps get the library's values), same grouping (a new clump whenever the
-    id column changes), same return value ``[(clump_id, [member_ids]), ...]`` and the clump's mask
-    set to its first member's; ``**kw`` go to ``utils.sphere`` (material, color, mask, ...).
-    The file is read by the project's own parser (:mod:`clumpprops.textclumps`), so a malformed
-    line raises :class:`~clumpprops.io.ClumpFileError` with its line number before
-    anything is added.  Mirrors ``ymport.textClumps``: ``fileName`` keeps YADE's camelCase name.
+    Mirrors ``ymport.textClumps``: the same arguments in the same order, and ``fileName`` keeps
+    YADE's camelCase name, so a call written for YADE works unchanged.
+
+    Parameters
+    ----------
+    fileName : str or path-like
+        The textClumps file (``x y z r clumpId`` per line, lengths in the file's unit).
+    shift : array_like, shape (3,), optional
+        Translation added after rotation and scaling, in m; None for none.
+    discretization : int, optional
+        Accepted for compatibility and irrelevant: the clumps get the library's values.
+    orientation : yade.Quaternion, optional
+        Rotation applied to the file's coordinates; None for none.
+    scale : float, optional
+        Factor applied to the file's coordinates and radii (to m).
+    method : str, optional
+        Name of the method of :func:`clumpprops.mass_properties` (``"exact"``, the default,
+        ``"pairwise"``, ``"sum"``, ``"montecarlo"`` or ``"voxel"``).
+    **kw
+        Passed to ``utils.sphere`` for every sphere (``material``, ``color``, ``mask``, ...).
+
+    Returns
+    -------
+    list of (int, list of int)
+        ``(clump_id, member_ids)`` per clump, in file order, as YADE returns them
+        (``member_ids`` without the correction member).
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    clumpprops.io.ClumpFileError
+        If a line is malformed (the message gives its line number), before anything is added.
+    ClumpAdapterError
+        For the clumps :func:`append_clumps` refuses (e.g. a method that cannot compute one),
+        before anything is added.
+
+    Notes
+    -----
+    Same grouping as YADE (a new clump whenever the id column changes), the same transform
+    (``shift + scale * (orientation * x)``), and the clump's mask set to its first member's.
+    The file is read by the project's own parser (:mod:`clumpprops.textclumps`).
     """
     Y = _Y.load()
     from yade import utils
@@ -44,7 +79,30 @@ def export_text_clumps(filename, comment="", mask=-1):
     exponent form (``1.23457e+06``), rounded, so neighbouring clumps can merge and
     ``ymport.textClumps`` cannot read the file.  This writes the same format
     (``#format x_y_z_r_clumpId``, one sphere member per line, correction members skipped) with
-    ``%.17g`` and ``%d``.  Returns ``(number of clumps, number of spheres)`` like YADE's.
+    ``%.17g`` and ``%d``.
+
+    Parameters
+    ----------
+    filename : str or path-like
+        The file to write (overwritten).
+    comment : str, optional
+        Written as a ``# comment`` line after the format line; empty for none.
+    mask : int, optional
+        Write only the spheres whose mask shares a bit with ``mask``; negative (the default)
+        writes every sphere member.
+
+    Returns
+    -------
+    n_clumps : int
+        Number of clumps in the scene (each one counted, even if the mask selects none of its
+        spheres), as YADE's ``export.textClumps`` counts them.
+    n_spheres : int
+        Number of sphere lines written.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written.
     """
     Y = _Y.load()
     out = ["#format x_y_z_r_clumpId\n"]
