@@ -40,21 +40,43 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
 
     Parameters
     ----------
-    centers : array (N, 3) in m for one clump, (M, N, 3) for a batch of M clumps,
-        or a list of M arrays (N_m, 3) for clumps of different sizes.
-    radii : array (N,) in m, (M, N), or a list of M arrays (N_m,); all > 0.
-    density : kg/m^3, > 0 (the solid density of the member spheres).
-    method : a name, or a typed object of :mod:`clumpprops.methods`
-        ``"exact"`` / ``Exact()`` (default): the union of the spheres, any overlap
-        pattern (see docs/exact_method.md); round-off accurate.
-        ``"pairwise"`` / ``Pairwise()``: the paper's eqs. (1)-(7); raises
-        ClumpGeometryError where three spheres share a region.
-        ``"sum"`` / ``Sum()``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
-        ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets ``standard_error``;
-        at most 10^9 samples.
-        ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme; discretization
-        at most 1000 and at most 10^9 cells per clump.
+    centers : array_like, shape (N, 3), (M, N, 3), or a list of M arrays (N_m, 3)
+        Sphere centres, in m: one clump, a batch of M clumps, or M clumps of different sizes.
+    radii : array_like, shape (N,), (M, N), or a list of M arrays (N_m,)
+        Sphere radii, in m; all > 0.
+    density : float, optional
+        Solid density of the member spheres, in kg/m^3; > 0.
+    method : str or a method object of :mod:`clumpprops.methods`, optional
+        The method, by name with its options as keywords, or as an object with its options:
 
+        * ``"exact"`` / ``Exact()`` (default): the union of the spheres, any overlap pattern
+          (see docs/exact_method.md); round-off accurate.
+        * ``"pairwise"`` / ``Pairwise()``: the paper's eqs. (1)-(7).
+        * ``"sum"`` / ``Sum()``: overlaps counted twice (YADE's default clump, LAMMPS fix rigid).
+        * ``"montecarlo"`` / ``MonteCarlo(n_samples=10**6, seed=None)``: sets
+          ``standard_error``; at most 10^9 samples.
+        * ``"voxel"`` / ``Voxel(discretization=10)``: YADE's regular-grid scheme;
+          discretization at most 1000 and at most 10^9 cells per clump.
+    **options
+        The options of a method given by name: ``n_samples``, ``seed`` and ``chunk`` for
+        ``"montecarlo"``, ``discretization`` for ``"voxel"``; none for the others.
+
+    Returns
+    -------
+    MassProperties
+        The properties, with a leading M axis on every array for batch input.
+
+    Raises
+    ------
+    ValueError
+        For bad input (shapes, non-positive radii or density, an unknown method or option,
+        complex numbers, booleans, strings, numbers beyond float64), and where a result would
+        not be a normal float64 number ("too large", "too small").
+    ClumpGeometryError
+        With ``method="pairwise"``, where three spheres of a clump share a region.
+
+    Notes
+    -----
     Spheres that do not change the union: ``exact`` drops exact duplicates (in clumps of more
     than 64 spheres, before the pair search) and spheres contained in another; ``pairwise``
     takes the spheres as given (a contained pair removes the smaller sphere, eq. 1-7's lens
@@ -64,12 +86,7 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
     ``exact``, ``pairwise`` and ``sum`` are scale-free: each clump is computed in units of a
     power of two near its largest radius and scaled back exactly, so the answer is exact
     wherever mass (~ density r^3) and inertia (~ density r^5) are normal float64 numbers;
-    beyond that range a ValueError says "too large" or "too small".  Complex numbers,
-    booleans, strings and numbers beyond float64 are refused with a ValueError.
-
-    Returns
-    -------
-    MassProperties, with a leading M axis on every array for batch input.
+    beyond that range a ValueError says "too large" or "too small".
     """
     rho = _input.check_density(density)
     name, options = _method(method, options)
