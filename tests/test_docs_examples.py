@@ -24,6 +24,7 @@ import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 from importlib.util import find_spec
@@ -204,3 +205,22 @@ def test_command_check_finds_missing_things():
     assert command_problems([".venv/bin/python", "-m", "studies.no_such_module"]) == ["no module studies.no_such_module"]
     assert command_problems(["clumpprops", "examples/no_such_file.txt"]) == ["no file examples/no_such_file.txt"]
     assert command_problems(["make", "docs"]) == [] and command_problems(["python", "-m", "studies", "plan", "x"]) == []
+
+
+@pytest.mark.parametrize("module", ["clumpprops", "clumpprops.io"])
+def test_docstring_examples_of_the_public_modules_run(module, tmp_path, monkeypatch):
+    """The ``>>>`` examples in module docstrings (shown on the API pages) run as written."""
+    import doctest
+    import importlib
+
+    shutil.copy(ROOT / "examples" / "engines" / "dimer.csv", tmp_path / "dimer.csv")   # the file the io example reads
+    monkeypatch.chdir(tmp_path)
+    mod = importlib.import_module(module)
+    finder = doctest.DocTestFinder(recurse=False)
+    tests = [t for t in finder.find(mod) if t.examples]
+    assert tests, f"{module}'s docstring has no examples"
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    for t in tests:
+        runner.run(t)
+    result = runner.summarize(verbose=False)
+    assert result.failed == 0 and result.attempted > 0, result
