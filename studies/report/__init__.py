@@ -42,13 +42,14 @@ from .words import prior_words as _prior_words  # noqa: E402,F401
 from .words import same_spin_answers as _same_spin_answers  # noqa: E402,F401
 from .words import stiffness_words as _stiffness_words  # noqa: E402,F401
 
-__all__ = ["RESULTS", "build", "main", "Planned", "planned", "readable_specs", "paper_share", "paper_share_answers",
+__all__ = ["RESULTS", "FINDINGS", "build", "main", "Planned", "planned", "readable_specs", "paper_share", "paper_share_answers",
            "same_spin_pairs", "pct", "interval", "verdict", "RECORD_VARIANT", "LATE_VARIANT", "fig2_section",
            "failures_section", "plain_words", "answers_section", "programme_section", "effects_section",
            "collision_map_section", "rates_section", "rate_ratio_section", "sphere_gas_section",
            "hard_sphere_md_section"]
 
 RESULTS = os.path.join(S.ROOT, "results")
+FINDINGS = findings.FINDINGS            # docs/findings.md, the study's findings page
 
 
 def _gas_against_map(n, value, lo, hi, map_value, map_se, num, ival):
@@ -125,7 +126,7 @@ def build():
     lines += _lines(render("figures.md.j2", figures=figs))
     text = "\n".join(lines) + "\n"
     _write(os.path.join(RESULTS, "README.md"), text)
-    findings.write(plans=plans, effect_rows=rows, maps=maps, share=share, sph=sph, rrows=rrows,
+    findings.write(FINDINGS, plans=plans, effect_rows=rows, maps=maps, share=share, sph=sph, rrows=rrows,
                    ratio_rows=ratio_rows, hsmd=hsmd, vacf=vacf_shape, results=RESULTS)
     return text
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -159,8 +160,17 @@ def facts(plans, effect_rows, maps, share, sph, rrows, ratio_rows, hsmd, vacf, r
 
 
 def write(path=FINDINGS, **kwargs):
-    """Render ``findings.md.j2`` with :func:`facts` (``kwargs``) and write it to ``path``; returns the text."""
-    text = render("findings.md.j2", **facts(**kwargs))
+    """Render ``findings.md.j2`` with :func:`facts` (``kwargs``) and write it to ``path``; returns the
+    text.  Results without a table or row the page states (a study not reported, no sphere-gas
+    table, no collision map of a shape) leave ``path`` as it is and say so on stderr: None."""
+    import jinja2
+
+    try:
+        text = render("findings.md.j2", **facts(**kwargs))
+    except (jinja2.UndefinedError, KeyError, TypeError, IndexError) as e:
+        print(f"[report] {os.path.relpath(path, S.ROOT)} not written: the results lack a number it states "
+              f"({type(e).__name__}: {e})", file=sys.stderr)
+        return None
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
         f.write(text)
