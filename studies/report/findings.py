@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from .. import sphere_gas
+from .. import design, sphere_gas
 from .. import spec as S
 from . import answers, tables
 from .render import render
@@ -33,9 +33,8 @@ def _map_row(maps, kind, overlap, youngs_modulus, case="uncorrected", protocol="
 
 
 def _spec_cost(plans, name):
-    """(CPU-hours spent, budget, every target met) of the spec ``name``, or None."""
-    from .. import design
-
+    """The spec ``name``'s CPU-hours spent (``cpu``), ``budget``, number of targets, whether every
+    target is met (``met``), its ``[run]`` table and ``targets`` by (case, protocol); None without it."""
     for sp, recs, status in plans:
         if sp["study"]["name"] == name:
             return dict(cpu=design.cpu_hours(recs), budget=sp["study"].get("budget_cpu_hours"),
@@ -70,6 +69,7 @@ def _shape_maps(maps, youngs_modulus):
 
 
 def _span(values):
+    """(smallest, largest) of ``values``; (NaN, NaN) without any."""
     return (min(values), max(values)) if values else (math.nan, math.nan)
 
 
