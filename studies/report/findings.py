@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from .. import design, sphere_gas
+from .. import design, effects_plots, rates, sphere_gas
 from .. import spec as S
 from . import answers, tables
 from .render import render
@@ -99,7 +99,8 @@ def _rates(rrows, ratio_rows):
         return next((r for r in ratio_rows if r["shape"] == shape and float(r["overlap"]) == overlap
                      and r["protocol"] == protocol and r["case"] == "uncorrected" and r["youngs_modulus"] == 1e7), None)
 
-    return dict(exact=_span(exact), n=len(ratio_rows), n_meet=sum(meets), n_zero=sum(zero), n_shape=len(zero),
+    return dict(t_fit=rates.T_FIT, exact=_span(exact), n=len(ratio_rows), n_meet=sum(meets), n_zero=sum(zero),
+                n_shape=len(zero),
                 pairs=_span([r["n_pairs"] for r in ratio_rows]), tet_ee=row("tetrahedron", "equal_energy"),
                 tri_ee=row("trimer_triangle", "equal_energy"), paper=row("dimer", "paired"))
 
@@ -129,34 +130,45 @@ def _t975(dof):
     return float(stats.t.ppf(0.975, dof))
 
 
-def facts(plans, effect_rows, maps, share, sph, rrows, ratio_rows, hsmd, vacf, results):
-    """Everything ``findings.md.j2`` states, from the report's tables (see the module's docstring)."""
-    words = answers.plain_words_facts(effect_rows, maps, share)
-    specs = [p.spec for p in plans]
-    checks = [answers.map_check(sp, g, st, maps) for sp, g, st, _ in tables.status_rows(plans)]
+def _paper_dimer(effect_rows, maps, words):
+    """The paper's dimer in the collision maps (the 1e7 Pa map's rows ``map7`` and file ``map_file``,
+    the softness part by E with its exponent, the k² parts' span and the stiffest map's k² part) and
+    the mass corrected alone in the gas (the largest 95 % bound) and in the maps (their span)."""
     paper = tables.paper_maps(maps)
     soft = sorted((E, r[("mass_scaled", "paired")]) for E, r in paper.items() if ("mass_scaled", "paired") in r)
-    k2_paper = [r[("uncorrected", "paired")]["minus_mass_scaled"] for r in paper.values()
-                if ("uncorrected", "paired") in r]
-    fv = tables.fig2_tables(results)
-    spheres_first = None if fv is None else fv[2][(fv[2].case == "spheres") & (fv[2].protocol == "paired")].iloc[0]
-    m7 = paper.get(1e7, {})
+    k2 = {E: r[("uncorrected", "paired")].get("minus_mass_scaled") for E, r in paper.items()
+          if ("uncorrected", "paired") in r}
     stiff = words["stiffness"]
-    stiffest = paper.get(max(paper), {}).get(("uncorrected", "paired")) if paper else None
+    mass_only = ([tables.effect_row(effect_rows, "paired", case="mass_only")]
+                 + [e for e, _ in (stiff["rows"] if stiff else [])])
+    return dict(map7=paper.get(1e7, {}),
+                map_file=next((m for m in maps if effects_plots.is_paper_dimer(m)
+                               and float(m["material"]["youngs_modulus"]) == 1e7), None),
+                soft=soft, exponent=_softness_exponent(soft), k2_paper=_span(list(k2.values())),
+                k2_stiffest=k2[max(k2)] if k2 else None,
+                mass_only_top=max((max(abs(e["relative_ci_low"]), abs(e["relative_ci_high"])) for e in mass_only if e),
+                                  default=math.nan),
+                mass_only_maps=_span([r[("mass_only", "paired")]["relative"] for r in paper.values()
+                                      if ("mass_only", "paired") in r]))
+
+
+def facts(plans, effect_rows, maps, share, sph, rrows, ratio_rows, hsmd, vacf, results):
+    """Everything ``findings.md.j2`` states, from the report's tables (see the module's docstring):
+    ``plans`` (:func:`tables.planned`), effects.csv's rows, the collision maps, the paper's share
+    (:func:`tables.paper_share`), the sphere-gas rows, :func:`studies.rates.rows` and
+    :func:`studies.rates.ratio_rows`, ``hard_sphere_md.json``, ``vacf_shape_md.json`` and the results
+    folder."""
+    words = answers.plain_words_facts(effect_rows, maps, share)
+    checks = [answers.map_check(sp, g, st, maps) for sp, g, st, _ in tables.status_rows(plans)]
+    fig2 = tables.fig2_tables(results)
+    spheres_first = None if fig2 is None else fig2[2][(fig2[2].case == "spheres") & (fig2[2].protocol == "paired")].iloc[0]
     return dict(w=words, share=share, share_first=tables.uncorrected_share(results), spheres_first=spheres_first,
-                map7=m7, k2_stiffest=None if stiffest is None else stiffest.get("minus_mass_scaled"),
-                all_met=all(st["state"] == "target met" for p in plans for st in p.status.values()), map_file=next((m for m in maps if m["file"] == "case_map.json"), None),
-                soft=soft, exponent=_softness_exponent(soft), k2_paper=_span(k2_paper),
-                same_spin=tables.same_spin_rows(specs, [p.records for p in plans]),
+                all_met=all(st["state"] == "target met" for p in plans for st in p.status.values()),
+                same_spin=tables.same_spin_rows([p.spec for p in plans], [p.records for p in plans]),
                 paired=_spec_cost(plans, "dimer_paired"), equal=_spec_cost(plans, "dimer_equal_energy"),
                 shapes_spec=_spec_cost(plans, "shapes"), stiffness_spec=_spec_cost(plans, "stiffness"),
                 shapes=_shapes(effect_rows, maps, checks), rates=_rates(rrows, ratio_rows),
-                kinetic=_kinetic(sph, hsmd, vacf, results),
-                mass_only_top=max((max(abs(e["relative_ci_low"]), abs(e["relative_ci_high"]))
-                                   for e in [tables.effect_row(effect_rows, "paired", case="mass_only")]
-                                   + [e for e, _ in (stiff["rows"] if stiff else [])] if e), default=math.nan),
-                mass_only_maps=_span([r[("mass_only", "paired")]["relative"] for r in paper.values()
-                                      if ("mass_only", "paired") in r]))
+                kinetic=_kinetic(sph, hsmd, vacf, results), **_paper_dimer(effect_rows, maps, words))
 
 
 def write(path=FINDINGS, **kwargs):
