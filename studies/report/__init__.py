@@ -19,7 +19,7 @@ import sys
 
 from .. import effects, effects_plots, rates, sphere_gas
 from .. import spec as S
-from . import answers, tables
+from . import answers, findings, tables
 from .render import apart as _apart
 from .render import interval, pct, render, verdict
 from .render import lines as _lines
@@ -42,13 +42,14 @@ from .words import prior_words as _prior_words  # noqa: E402,F401
 from .words import same_spin_answers as _same_spin_answers  # noqa: E402,F401
 from .words import stiffness_words as _stiffness_words  # noqa: E402,F401
 
-__all__ = ["RESULTS", "build", "main", "Planned", "planned", "readable_specs", "paper_share", "paper_share_answers",
+__all__ = ["RESULTS", "FINDINGS", "build", "main", "Planned", "planned", "readable_specs", "paper_share", "paper_share_answers",
            "same_spin_pairs", "pct", "interval", "verdict", "RECORD_VARIANT", "LATE_VARIANT", "fig2_section",
            "failures_section", "plain_words", "answers_section", "programme_section", "effects_section",
            "collision_map_section", "rates_section", "rate_ratio_section", "sphere_gas_section",
            "hard_sphere_md_section"]
 
 RESULTS = os.path.join(S.ROOT, "results")
+FINDINGS = findings.FINDINGS            # docs/findings.md, the study's findings page
 
 
 def _gas_against_map(n, value, lo, hi, map_value, map_se, num, ival):
@@ -96,7 +97,8 @@ def _write(path, text):
 
 
 def build():
-    """Write ``RESULTS/effects.csv``, the report's figures and ``RESULTS/README.md``; returns the report's text."""
+    """Write ``RESULTS/effects.csv``, the report's figures, ``RESULTS/README.md`` and ``docs/findings.md``
+    (:mod:`studies.report.findings`); returns the report's text."""
     specs, failures = readable_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
     collected = effects.collect(specs, [p.records for p in plans])
@@ -114,8 +116,9 @@ def build():
     programme_section(lines, plans)
     effects_section(lines, rows)
     collision_map_section(lines, maps, rows)
-    rates_section(lines, rates.rows(collected, maps))
-    rate_ratio_section(lines, rates.ratio_rows(collected, maps))
+    rrows, ratio_rows = rates.rows(collected, maps), rates.ratio_rows(collected, maps)
+    rates_section(lines, rrows)
+    rate_ratio_section(lines, ratio_rows)
     sphere_gas_section(lines, sph)
     vacf_shape = tables.read_json(os.path.join(S.ROOT, "results", "estimator", "vacf_shape_md.json"))
     hsmd = tables.read_json(os.path.join(RESULTS, "hard_sphere_md.json"))        # written by studies.hard_sphere_md
@@ -123,6 +126,8 @@ def build():
     lines += _lines(render("figures.md.j2", figures=figs))
     text = "\n".join(lines) + "\n"
     _write(os.path.join(RESULTS, "README.md"), text)
+    findings.write(FINDINGS, plans=plans, effect_rows=rows, maps=maps, share=share, sph=sph, rrows=rrows,
+                   ratio_rows=ratio_rows, hsmd=hsmd, vacf=vacf_shape, results=RESULTS)
     return text
 
 

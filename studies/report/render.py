@@ -43,6 +43,11 @@ def fmt(x, spec):
     return format(x, spec)
 
 
+def uminus(text):
+    """``text`` with each hyphen-minus as the typographic minus sign (the docs' numbers: "−0.035")."""
+    return str(text).replace("-", "\u2212")
+
+
 def finite(x):
     """True for a number that is there (neither None nor NaN)."""
     return x is not None and not pd.isna(x)
@@ -58,7 +63,7 @@ def environment():
     from ..sequential import MIN_PAIRS
 
     env.globals["min_pairs"] = MIN_PAIRS
-    env.filters.update(pct=pct, pm=pm, pm95=pm95, fmt=fmt)
+    env.filters.update(pct=pct, pm=pm, pm95=pm95, fmt=fmt, uminus=uminus)
     env.globals.update(interval=interval, finite=finite, isfinite=isfinite, pct=pct, pm=pm, pm95=pm95)
     common = env.get_template("macros/common.j2").module
     env.globals.update(verdict=common.verdict, cpu_hours=common.cpu_hours, apart=common.apart)
