@@ -16,15 +16,27 @@ __all__ = ["Clump", "ClumpFileError"]
 
 
 class ClumpFileError(ValueError):
-    """A bad input file, reported as one line ``FILE:LINE: reason`` (``FILE: reason`` if no line).
+    """A bad input file, reported as one line ``FILE:LINE: reason``.
+
+    The message is ``FILE: reason`` where the error is not tied to a line.
 
     Parameters
     ----------
-    reason : what is wrong; runs of whitespace (and line breaks) become one space.
-    source : the file's name as the user gave it.
-    lineno : the 1-based line, or None where the error is not tied to a line.
+    reason : str
+        What is wrong; runs of whitespace (and line breaks) become one space.
+    source : str, optional
+        The file's name as the user gave it.
+    lineno : int or None, optional
+        The 1-based line, or None where the error is not tied to a line.
 
-    Attributes ``source``, ``lineno`` and ``reason`` hold the three.
+    Attributes
+    ----------
+    source : str
+        The file's name, as given.
+    lineno : int or None
+        The 1-based line, or None.
+    reason : str
+        What is wrong, as given.
     """
 
     def __init__(self, reason: str, source: str = "<input>", lineno: Optional[int] = None):
@@ -39,13 +51,27 @@ class Clump:
 
     Parameters
     ----------
-    centers : (N, 3) sphere centres, m.
-    radii : (N,) sphere radii, m.
-    name : used for the names of exported files.
-    source : the file it came from.
-    lines : the 1-based line of each sphere in ``source`` (empty, or 0, where not tied to a line).
-    clump_id : the file's integer id of the clump (textClumps' ``clumpId``), None where the format has none.
-    repeated_id : True if ``clump_id`` already labelled an earlier, separate clump of the file.
+    centers : numpy.ndarray, shape (N, 3)
+        Sphere centres, m.
+    radii : numpy.ndarray, shape (N,)
+        Sphere radii, m.
+    name : str, optional
+        The stem of the names of exported files.
+    source : str, optional
+        The file the clump came from.
+    lines : tuple of int, optional
+        The 1-based line of each sphere in `source`, 0 for a sphere not tied to a line;
+        empty where the clump is not tied to lines.
+    clump_id : int or None, optional
+        The file's integer id of the clump (textClumps' ``clumpId``); None where the format
+        has none.
+    repeated_id : bool, optional
+        True if `clump_id` already labelled an earlier, separate clump of the file.
+
+    Notes
+    -----
+    The record is frozen: its fields do not change once made.  A reader fills `source`,
+    `lines` and `clump_id`, so that later errors can name the file and line.
     """
 
     centers: np.ndarray
@@ -58,6 +84,7 @@ class Clump:
 
     @property
     def n_spheres(self) -> int:
+        """The number of spheres, N."""
         return len(self.radii)
 
     @property

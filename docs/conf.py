@@ -61,9 +61,8 @@ numpydoc_xref_param_type = False
 # every documented public callable has its numpydoc sections (-W turns a missing one into an error):
 # GL08 a docstring, PR01 every parameter documented, PR02 no unknown one, RT01 Returns where it returns
 numpydoc_validation_checks = {"GL08", "PR01", "PR02", "RT01"}
-# Not validated: private and dunder members, and clumpprops.io, whose docstrings are not yet in
-# numpydoc form: drop the pattern once they are.
-numpydoc_validation_exclude = {r"\._[^.]*$", r"^clumpprops\.io\."}
+# Not validated: private and dunder members.
+numpydoc_validation_exclude = {r"\._[^.]*$"}
 
 html_theme = "furo"
 html_title = f"clumpprops {release}"

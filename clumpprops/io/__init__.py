@@ -1,14 +1,17 @@
 """Exporters and importers: exact sphere clumps for DEM engines (LIGGGHTS, LAMMPS, DEME, MercuryDPM, YADE).
 
+:func:`read` takes the format from the file's name or content (or ``fmt="csv"``, ...);
+:func:`export` writes the files one engine reads, values in SI units:
+
 >>> from clumpprops import io as cio
->>> clumps = cio.read("dimer.csv")                      # format from the extension, or fmt="csv"
+>>> clumps = cio.read("dimer.csv")
 >>> paths = cio.export(clumps, to="liggghts", out_dir="out", density=1140.0)
 
-One module per engine (:mod:`.liggghts`, :mod:`.lammps`, :mod:`.deme`, :mod:`.mclump`,
-:mod:`.yade`), each with ``write(clumps, mp, out_dir, density, method, ...)``; the readers
-are in :mod:`.readers`.  Values come from ``clumpprops.mass_properties`` (exact method by
-default), in SI units, written with 17 significant digits.  The command line is
-``clumpprops export FILE --to ENGINE`` (:mod:`.cli`; docs/engines.md).
+One module per engine (``clumpprops.io.liggghts``, ``.lammps``, ``.deme``, ``.mclump``,
+``.yade``), each with ``write(clumps, mp, out_dir, density, method, ...)``; the readers
+are in ``clumpprops.io.readers``.  Values come from :func:`clumpprops.mass_properties`
+(exact method by default), in SI units, written with 17 significant digits.  The command line
+is ``clumpprops export FILE --to ENGINE`` (``clumpprops.io.cli``; docs/engines.md).
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from typing import Callable, List, Optional, Sequence
 from ._common import Clump, ClumpFileError, compute
 from .readers import FORMATS, detect_format, read
 
+#: The engines :func:`export` writes for, as its ``to`` argument.
 ENGINES = ("liggghts", "lammps", "deme", "mclump", "yade")
 
 __all__ = ["Clump", "ClumpFileError", "ENGINES", "ExportRefused", "FORMATS", "compute", "detect_format", "export",
@@ -36,24 +40,78 @@ def _module(to: str):
 
 
 class ExportRefused(ClumpFileError):
-    """An export that would write over its input, or over an existing file without ``force``."""
+    """An export that would write over its input, or over an existing file without ``force``.
+
+    A :class:`ClumpFileError` whose `source` is the file that would be replaced.
+
+    Parameters
+    ----------
+    reason : str
+        Why nothing was written.
+    source : str, optional
+        The file the export would have written over.
+    lineno : int or None, optional
+        Always None for an export.
+    """
 
 
 def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.0, method: str = "exact",
            source: str = "", scale: float = 1.0, stem: Optional[str] = None, mp=None,
            warn: Optional[Callable[[str], None]] = None, templates: bool = True, force: bool = False) -> List:
-    """Write the files engine ``to`` reads for ``clumps`` into ``out_dir``; returns the paths.
+    """Write the files DEM engine `to` reads for `clumps` into `out_dir`.
 
-    Nothing is written over the input file ``source``, nor over an existing file unless ``force``:
-    the files are written to a staging folder first and moved into ``out_dir`` only when none
-    would replace the input or (without ``force``) another file; else :class:`ExportRefused`
-    names the file and nothing is written.
+    Parameters
+    ----------
+    clumps : sequence of Clump
+        The clumps to export; at least one.
+    to : str
+        The engine, one of :data:`ENGINES`.
+    out_dir : str or os.PathLike, optional
+        The folder the files go to; made if missing.  The current folder by default.
+    density : float, optional
+        Density of the clump material, kg/m^3.
+    method : str, optional
+        The method of :func:`clumpprops.mass_properties` by name; ``"exact"`` by default.
+    source : str, optional
+        The input file the clumps came from: named in the files' headers, and never written
+        over.
+    scale : float, optional
+        The factor the reader applied to the input's lengths, named in the headers (1.0: none).
+    stem : str or None, optional
+        The stem of the output file names; None for the clump's name if there is one
+        clump, else ``"clumps"``.  ``mclump`` ignores it: one folder per clump, named
+        after the clump.
+    mp : clumpprops.MassProperties or None, optional
+        Precomputed mass properties of the clumps (a batch, as :func:`compute` returns);
+        None to compute them here with `method` and `density`.
+    warn : callable or None, optional
+        Receives each warning as a string (DEME's float32 precision); None to drop them.
+    templates : bool, optional
+        False skips the per-clump template files of LAMMPS (``.mol``) and DEME (``.csv``;
+        DEME's JSON still holds every clump's spheres): for large batches, where one file
+        per clump costs more than everything else.
+    force : bool, optional
+        True replaces existing output files (never the input file `source`).
 
-    ``mp``: precomputed ``mass_properties`` of the clumps (batch), else computed here with
-    ``method`` and ``density``.  ``warn`` receives warnings (DEME float32 precision).
-    ``templates=False`` skips the per-clump template files of LAMMPS (``.mol``) and DEME
-    (``.csv``; the JSON still holds every clump's spheres): for large batches, where one
-    file per clump costs more than everything else.
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    Raises
+    ------
+    ValueError
+        If `to` is not one of :data:`ENGINES`, `clumps` is empty, or `templates` is False
+        for an engine other than ``lammps`` and ``deme``.
+    ExportRefused
+        If a file would replace `source`, or (without `force`) an existing file; then
+        nothing is written.
+
+    Notes
+    -----
+    The files are written to a staging folder inside `out_dir` first, and moved into
+    `out_dir` only when none would replace the input or (without `force`) another file.
+    Values are in SI units, with 17 significant digits.
     """
     mod = _module(to)
     clumps = list(clumps)

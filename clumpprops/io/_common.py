@@ -31,7 +31,29 @@ def fmt_rows(a, sep: str = " ") -> List[str]:
 
 
 def compute(clumps: Sequence[Clump], density: float, method: str = "exact"):
-    """Library mass properties of the clumps, one batch call (``clumpprops.mass_properties``)."""
+    """Mass properties of the clumps, in one batch call of :func:`clumpprops.mass_properties`.
+
+    Parameters
+    ----------
+    clumps : sequence of Clump
+        The clumps; at least one.
+    density : float
+        Density of the clump material, kg/m^3.
+    method : str, optional
+        The method of :func:`clumpprops.mass_properties` by name; ``"exact"`` (the exact union
+        of the spheres) by default.
+
+    Returns
+    -------
+    clumpprops.MassProperties
+        The batch: mass in kg, volume in m^3, centre of mass in m, inertia in kg m^2, one
+        entry per clump.
+
+    Raises
+    ------
+    ValueError
+        If `clumps` is empty, or for what :func:`clumpprops.mass_properties` refuses.
+    """
     if not clumps:
         raise ValueError("no clumps to export")
     return mass_properties([c.centers for c in clumps], [c.radii for c in clumps], density=density, method=method)

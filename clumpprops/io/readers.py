@@ -44,6 +44,7 @@ from .._numtext import data_line_indices, fast_table, float_columns, is_float, s
 
 __all__ = ["FORMATS", "detect_format", "read"]
 
+#: The formats :func:`read` reads, as its ``fmt`` argument.
 FORMATS = ("csv", "liggghts", "mclump", "yade", "lammps")
 _EXT = {
     ".csv": "csv",
@@ -90,10 +91,41 @@ def sniff_format(path, n_lines=50) -> Optional[str]:
 
 
 def detect_format(path) -> str:
-    """The format of ``path``: from its content where that shows one (:func:`sniff_format`: a
-    CLUMP comma table named ``.txt``, a LAMMPS molecule file named ``molecule.data``), else from
-    its name (see the module table); ClumpFileError if neither tells.  A five-column file named
-    like a LIGGGHTS sphere file stays ``liggghts`` (its fifth column is the atom type)."""
+    """The format of a clump file, from its content or its name.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file, or an MClump clump folder.
+
+    Returns
+    -------
+    str
+        One of :data:`FORMATS`.
+
+    Raises
+    ------
+    ClumpFileError
+        If neither the content nor the name shows a format.
+
+    Notes
+    -----
+    The content decides where it shows a format (a CLUMP comma table named ``.txt``, a LAMMPS
+    molecule file named ``molecule.data``); else the name does, as in this table:
+
+    ============  ===================================================
+    format        detected from
+    ============  ===================================================
+    ``csv``       ``.csv``
+    ``liggghts``  ``.multisphere``, ``.ms``, ``.spheres``
+    ``mclump``    a file named ``Clump.txt``, a directory
+    ``yade``      ``.txt`` (other names)
+    ``lammps``    ``.mol``, ``.molecule``
+    ============  ===================================================
+
+    A five-column file named like a LIGGGHTS sphere file stays ``liggghts`` (its fifth column
+    is the atom type).
+    """
     p = Path(path)
     if p.is_dir() or p.name == "Clump.txt":
         return "mclump"
@@ -453,7 +485,38 @@ _READERS = {"csv": read_csv, "liggghts": read_liggghts, "mclump": read_mclump, "
 
 
 def read(path, fmt: Optional[str] = None, scale: float = 1.0) -> List[Clump]:
-    """Clumps from ``path``; ``fmt`` one of :data:`FORMATS` or None to detect it from the name."""
+    """Read the clumps of a file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file (or, for ``mclump``, the clump folder).
+    fmt : str or None, optional
+        One of :data:`FORMATS`; None to detect it with :func:`detect_format`.
+    scale : float, optional
+        Factor on every coordinate and radius, to make them metres (0.001 for a file in mm).
+
+    Returns
+    -------
+    list of Clump
+        The clumps in file order, centres and radii in m; one clump for every format but
+        ``yade`` (textClumps), which holds any number.
+
+    Raises
+    ------
+    ValueError
+        If `scale` is not a positive finite number.
+    ClumpFileError
+        If `fmt` is unknown or cannot be detected, the file is missing, or a line of it is
+        bad (a word that is not a number, NaN or inf, a radius <= 0, the wrong number of
+        columns) or it holds no sphere; the message names the file and line.
+
+    Notes
+    -----
+    Numbers are ASCII only; a UTF-8 byte order mark at the start of the file is skipped.
+    In a LAMMPS molecule file each atom id appears once per section, and every
+    ``Diameters`` and ``Masses`` entry is a number > 0 for an atom of ``Coords``.
+    """
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be a positive finite number, got {scale!r}")
