@@ -55,15 +55,8 @@ def check_count(value, name, lo, hi) -> int:
     return v
 
 
-@dataclass(frozen=True)
-class Exact:
-    """The exact method: the union of the spheres, any overlap pattern.
-
-    Computed by the compiled exact core (docs/exact_method.md); round-off accurate.  The same as
-    ``method="exact"``, the default.
-    """
-
-    name = "exact"
+class _NoOptions:
+    """A method that takes no options (the base of :class:`Exact`, :class:`Pairwise`, :class:`Sum`)."""
 
     def options(self) -> dict:
         """The method's keyword options for :func:`clumpprops.mass_properties`.
@@ -77,7 +70,18 @@ class Exact:
 
 
 @dataclass(frozen=True)
-class Pairwise:
+class Exact(_NoOptions):
+    """The exact method: the union of the spheres, any overlap pattern.
+
+    Computed by the compiled exact core (docs/exact_method.md); round-off accurate.  The same as
+    ``method="exact"``, the default.
+    """
+
+    name = "exact"
+
+
+@dataclass(frozen=True)
+class Pairwise(_NoOptions):
     """The pairwise overlap correction of the paper (its equations 1-7).
 
     The same as ``method="pairwise"``.  Exact where no point lies in three spheres;
@@ -87,19 +91,9 @@ class Pairwise:
 
     name = "pairwise"
 
-    def options(self) -> dict:
-        """The method's keyword options for :func:`clumpprops.mass_properties`.
-
-        Returns
-        -------
-        dict
-            Empty: this method takes no options.
-        """
-        return {}
-
 
 @dataclass(frozen=True)
-class Sum:
+class Sum(_NoOptions):
     """The summed spheres, overlaps counted twice.
 
     The same as ``method="sum"``: what YADE's ``appendClumped`` (discretization 0) and LAMMPS'
@@ -107,16 +101,6 @@ class Sum:
     """
 
     name = "sum"
-
-    def options(self) -> dict:
-        """The method's keyword options for :func:`clumpprops.mass_properties`.
-
-        Returns
-        -------
-        dict
-            Empty: this method takes no options.
-        """
-        return {}
 
 
 @dataclass(frozen=True)
