@@ -88,7 +88,7 @@ def initial_decay_time(lag_s, vacf, t_fit=2.0):
 
     In a dilute gas 1/tau is the collision rate times the mean fractional momentum loss per
     collision, set by binary collisions alone (the first Chapman-Enskog approximation), so it
-    compares a gas with a collision map (benchmarks/case_map.py, relaxation_time_n) without any
+    compares a gas with a collision map (studies/maps.py, relaxation_time_n) without any
     model of the VACF's tail.  Needs C > 0 on the fit lags and at least 2 of them."""
     lag, c = _check_lags(lag_s, vacf)
     if c[0] <= 0:

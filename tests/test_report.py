@@ -593,14 +593,14 @@ def _md_text(vacf_shape):
 
 def test_hard_sphere_md_section_states_the_measured_cause_only_when_resolved():
     text = _md_text(_vacf_shape(0.029, 0.003, shift=0.0020, shift_se=0.0003))     # the shift matches the bias
-    assert "the cause, measured (`benchmarks/vacf_shape_md.py`, 200 runs of 864)" in text
+    assert "the cause, measured (`python -m studies vacf-shape`, 200 runs of 864)" in text
     assert "13.98 ± 0.01 s on 0-0.5 tau to 14.39 ± 0.05 s on 2-3 tau (+2.90 % ± 0.30 %)" in text
     assert "the estimator reads -0.190 % ± 0.060 % from the exact integral" in text
     assert "(2-4 tau) reads +0.200 % ± 0.030 % above the estimator (paired), at a per-run sd of 1.10 % instead of 0.97 %" in text
     assert "not proven" not in text and "short of" not in text
     # a resolved shift of a fifth of the bias (+0.04 % +- 0.01 % against -0.20 % +- 0.07 %): a contributor
     text = _md_text(_vacf_shape(0.029, 0.003, shift=0.0004, shift_se=0.0001))
-    assert "a contributor, measured (`benchmarks" in text and "short of the whole bias" in text
+    assert "a contributor, measured (`python -m studies vacf-shape" in text and "short of the whole bias" in text
     assert "the cause, measured" not in text
     # an older file without the paired shift: the rise and the estimator's reading only, a contributor
     text = _md_text(_vacf_shape(0.029, 0.003, rel_record=False))
@@ -610,7 +610,7 @@ def test_hard_sphere_md_section_states_the_measured_cause_only_when_resolved():
                  _vacf_shape(0.029, float("nan")), _vacf_shape(float("nan"), 0.003), _vacf_shape(0.029, 0.003, n=108),
                  None):
         text = _md_text(weak)
-        assert "the likely cause, not proven" in text and "measured (`benchmarks" not in text
+        assert "the likely cause, not proven" in text and "measured (`python -m studies vacf-shape" not in text
 
 
 def test_committed_hard_sphere_md_collides_at_enskogs_rate():
