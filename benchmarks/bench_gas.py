@@ -37,7 +37,7 @@ import tomllib
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-from studies import engine
+from studies import engine, manifest
 from studies import spec as S
 from studies.correlation import msd_bruteforce, msd_fft
 
@@ -112,7 +112,7 @@ def bench_driver(n_runs):
         t0 = time.perf_counter()
         engine.sweep(sp, workers=1, allow_dirty=True, progress_every=1e9, log=lambda *a: None)
         wall = time.perf_counter() - t0
-        rows, recs = engine.read_manifest(tmp), []
+        rows, recs = manifest.read_manifest(tmp), []
         assert all(r["status"] == "done" for r in rows.values()), rows
         for r in rows.values():
             with open(os.path.join(tmp, r["record"])) as f:

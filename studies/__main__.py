@@ -93,7 +93,7 @@ def main(argv=None):
         return 2
     if a.results:
         spec["study"]["results"] = os.path.abspath(a.results)
-    from . import engine
+    from . import engine, eta
 
     t0 = time.time()
     if a.command == "plan":
@@ -129,7 +129,7 @@ def main(argv=None):
         gas_plots.plot_all(engine.results_dir(spec))
         study_page.write(engine.results_dir(spec))
     if a.command == "run":
-        print(f"[run] total wall time {engine._fmt_s(time.time() - t0)}; results in "
+        print(f"[run] total wall time {eta.fmt_s(time.time() - t0)}; results in "
               f"{os.path.relpath(engine.results_dir(spec), S.ROOT)}")
     return 0
 

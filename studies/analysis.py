@@ -42,7 +42,7 @@ from dataclasses import astuple, dataclass
 
 import numpy as np
 
-from . import design, engine, runner
+from . import design, engine, manifest, runner
 from . import spec as study_spec
 from .diffusion import ols_msd
 from .intervals import t_interval
@@ -161,7 +161,7 @@ def load_records(spec):
     rdir = engine.results_dir(spec)
     recs = design.load_records(spec, rdir)
     extra = design.plan(spec, rdir, recs)[0] if any(g.get("target") for g in spec["groups"]) else {}
-    return engine.reconcile(spec, study_spec.runs(spec, extra_seeds=extra), rdir), recs
+    return manifest.reconcile(spec, study_spec.runs(spec, extra_seeds=extra), rdir), recs
 
 
 def gas_labels(spec):
@@ -451,9 +451,9 @@ def analyze(spec, log=print):
         raise ValueError(problem)
     t0 = time.time()
     out = engine.results_dir(spec)
-    manifest, records_by_key = load_records(spec)
-    missing = _log_run_state(manifest, spec, log)
-    records = [records_by_key[k] for k in manifest if k in records_by_key]
+    manifest_rows, records_by_key = load_records(spec)
+    missing = _log_run_state(manifest_rows, spec, log)
+    records = [records_by_key[k] for k in manifest_rows if k in records_by_key]
     good = [r for r in records if r["checks"]["ok"]]
     for r in records:
         if not r["checks"]["ok"]:
@@ -489,7 +489,7 @@ def analyze(spec, log=print):
     _write_records(os.path.join(out, "ratio_D.csv"), d_ratios, RatioOfD)
     write_energy_tables(out, good)
 
-    params = study_params(spec, records, good, len(manifest), len(missing))
+    params = study_params(spec, records, good, len(manifest_rows), len(missing))
     params["wall_analysis_s"] = time.time() - t0
     runner.write_atomic(os.path.join(out, "params.json"), json.dumps(params, indent=1, default=float))
     log(f"[analyze] {len(good)} runs used, {len(records) - len(good)} excluded, {len(missing)} missing; "

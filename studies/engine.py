@@ -30,9 +30,8 @@ from typing import Callable
 from . import runner
 from . import spec as S
 from .drain import DRAIN, Drain, DriverLock
-from .eta import fmt_s as _fmt_s, n_workers, progress_line as _progress_line, remaining_s  # noqa: F401
-from .manifest import (MANIFEST_FIELDS, fill_done as _fill_done, mark_running as _mark_running,  # noqa: F401
-                       now_stamp, read_manifest, reconcile, write_manifest)
+from .eta import fmt_s as _fmt_s, n_workers, progress_line as _progress_line
+from .manifest import fill_done as _fill_done, mark_running as _mark_running, now_stamp, reconcile, write_manifest
 
 results_dir = S.results_dir          # kept here for callers of engine
 

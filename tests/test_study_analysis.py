@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies import analysis, design, diffusion, effects, engine, reduce as red, runner, sequential, synthetic
+from studies import analysis, design, diffusion, effects, engine, manifest, reduce as red, runner, sequential, synthetic
 from studies import spec as S
 
 TAU, SIGMA_V = 25.0, math.sqrt(0.629)         # s, m/s per component: the gas's values
@@ -723,12 +723,12 @@ def test_driver_keeps_runs_in_flight_when_the_budget_runs_out_mid_batch(tmp_path
     dropped = [r for r in S.runs(sp, extra_seeds={0: [3, 4]}) if r["seed"] == 3]
     assert dropped and all(runner.is_complete(runner.record_path(rdir, r), r["key"]) for r in dropped)
     # and the manifest lists them as done, after the sweep and in a status read (before: left out)
-    man = engine.read_manifest(rdir)
+    man = manifest.read_manifest(rdir)
     assert all(man[r["key"]]["status"] == "done" for r in dropped)
     st = engine.status(sp, log=lambda s: None)
     assert all(st[r["key"]]["status"] == "done" for r in dropped)
     assert engine.sweep(sp, workers=1, allow_dirty=True, log=lambda s: None) and \
-        all(engine.read_manifest(rdir)[r["key"]]["status"] == "done" for r in dropped)
+        all(manifest.read_manifest(rdir)[r["key"]]["status"] == "done" for r in dropped)
 
 
 def test_driver_drains_finishing_runs_in_flight_and_resumes_after(tmp_path, monkeypatch):
@@ -761,7 +761,7 @@ def test_driver_drains_finishing_runs_in_flight_and_resumes_after(tmp_path, monk
     assert sorted(r["status"] for r in rows.values()) == ["done"] + ["todo"] * 5
     assert any("draining" in ln and "1 run(s) in flight finish, 5 queued run(s) cancelled" in ln for ln in lines), lines
     assert any(ln.startswith("[study] finished 1 runs") and "5 cancelled by the drain" in ln for ln in lines), lines
-    man = engine.read_manifest(rdir)
+    man = manifest.read_manifest(rdir)
     assert sorted(r["status"] for r in man.values()) == ["done"] + ["todo"] * 5
     assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo")   # not counted as tries
     assert os.path.exists(os.path.join(rdir, engine.DRAIN))            # left for a look; the next driver clears it
@@ -838,7 +838,7 @@ def test_a_run_that_began_after_the_drain_returns_untried_and_a_sequential_group
     rows = engine.sweep(sp2, workers=2, allow_dirty=True, log=lines.append, progress_every=1.0)
     assert log3.read_text().split() == ["1", "exact"], lines
     assert sorted(r["status"] for r in rows.values()) == ["done", "todo", "todo", "todo"]
-    man = engine.read_manifest(rdir2)
+    man = manifest.read_manifest(rdir2)
     assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo"), man
     assert any(ln.startswith("[study] finished 1 runs") and "3 cancelled by the drain" in ln for ln in lines), lines
 
@@ -1001,7 +1001,7 @@ def test_driver_under_a_deadline_starts_only_runs_that_fit(tmp_path, monkeypatch
     assert sorted(ran[2:]) == [("2", "exact"), ("2", "uncorrected"), ("3", "exact"), ("3", "uncorrected")], ran
     todo = sorted(r["name"].split("-")[1] for r in rows.values() if r["status"] == "todo")
     assert todo == ["mass_only"] * 3, rows
-    man = engine.read_manifest(rdir)
+    man = manifest.read_manifest(rdir)
     assert all(r["attempts"] in ("", "0", 0) for r in man.values() if r["status"] == "todo")
     assert any(ln.startswith("[study] drain by") for ln in lines), lines
     assert any(ln.startswith("[study] drained") for ln in lines), lines

@@ -21,7 +21,7 @@ import pandas as pd
 import pytest
 import tomllib
 
-from studies import engine, runner
+from studies import engine, eta, runner
 from studies import spec as S
 from studies.correlation import msd_fft
 
@@ -529,12 +529,12 @@ def test_the_eta_starts_from_the_cost_model_and_takes_the_runs_own_pace_after_a_
     """No wild first ETA: before a tenth of a run is done its remaining time is the cost model's
     expected time for the part left (start-up does not dominate it); afterwards the run's own pace."""
     now = 1000.0
-    assert engine.remaining_s(600.0, None, now) == 600.0                       # queued: the model
+    assert eta.remaining_s(600.0, None, now) == 600.0                       # queued: the model
     early = {"t": 2.0, "t_end": 400.0, "started": now - 30.0, "wall": now}      # 0.5 % done after a slow start
-    assert engine.remaining_s(600.0, early, now) == pytest.approx(600.0 * (1 - 2.0 / 400.0))
+    assert eta.remaining_s(600.0, early, now) == pytest.approx(600.0 * (1 - 2.0 / 400.0))
     later = {"t": 100.0, "t_end": 400.0, "started": now - 200.0, "wall": now}   # a quarter in 200 s
-    assert engine.remaining_s(600.0, later, now) == pytest.approx(600.0)        # 3 quarters at its pace
-    assert math.isnan(engine.remaining_s(float("nan"), early, now))            # no model, no pace yet: unknown
+    assert eta.remaining_s(600.0, later, now) == pytest.approx(600.0)        # 3 quarters at its pace
+    assert math.isnan(eta.remaining_s(float("nan"), early, now))            # no model, no pace yet: unknown
 
 
 def test_the_first_progress_line_of_a_study_states_the_model_eta(tmp_path):
@@ -543,8 +543,8 @@ def test_the_first_progress_line_of_a_study_states_the_model_eta(tmp_path):
     runs = S.runs(sp)
     futs = {object(): r for r in runs}
     expected = {r["key"]: 100.0 for r in runs}
-    line = engine._progress_line(str(tmp_path), futs, set(futs), expected, 2, 1.0, 0, len(runs))
-    assert f"study eta {engine._fmt_s(100.0 * len(runs) / 2)}" in line and "0 running" in line
+    line = eta.progress_line(str(tmp_path), futs, set(futs), expected, 2, 1.0, 0, len(runs))
+    assert f"study eta {eta.fmt_s(100.0 * len(runs) / 2)}" in line and "0 running" in line
 
 
 def test_a_second_driver_on_a_results_directory_is_refused_until_the_first_releases_its_lock(tmp_path):
