@@ -216,8 +216,7 @@ _VERIFY_RTOL = 1e-10  # YADE's state after a build against the target (relative;
 
 def _verify(cids, rows, targets, rtol=_VERIFY_RTOL):
     """YADE's state of each clump (``rows``) equals its target (mass, COM, inertia tensor), else raise."""
-    for cid, row, t in zip(cids, rows, targets):
-        e_m, e_c, e_i = _core.state_errors(row, t)
+    for cid, e_m, e_c, e_i in zip(cids, *_state_errors(rows, targets)):
         if not (e_m <= rtol and e_c <= rtol and e_i <= rtol):  # NaN fails too
             raise _mismatch(cid, e_m, e_c, e_i, rtol)
 
