@@ -27,6 +27,7 @@ import csv
 import io
 import json
 import sys
+import textwrap
 from typing import Optional, Sequence
 
 import numpy as np
@@ -42,6 +43,13 @@ PROG = "clumpprops"
 MAX_WARNINGS = 5  # repeated-id warnings printed before a count
 
 
+#: The subcommands of ``clumpprops``: name -> (module with ``main(argv)``, one line for ``--help``).
+SUBCOMMANDS = {
+    "export": ("clumpprops.io.cli", "write the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, "
+               "with the exact values"),
+}
+
+
 class CLIError(Exception):
     """A user-facing error: printed as one line, exit status 1."""
 
@@ -49,18 +57,19 @@ class CLIError(Exception):
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
-        description=(
+        description=textwrap.fill(
             "Mass, volume, centre of mass and principal moments of inertia of the sphere clumps "
             "in a YADE textClumps file (lines 'x y z r clumpId', '#' comments). SI units: "
             "lengths in m, density in kg/m^3, mass in kg, inertia in kg m^2."
         ),
-        epilog=(
+        epilog=textwrap.fill(
             "The overlap column is 100*(m_sum/m - 1): how much summing the member spheres "
             "(YADE's default clump) overestimates the mass. Exit status: 0 ok, 1 error in the "
-            "input or geometry, 2 bad options. Subcommand: 'clumpprops export FILE --to ENGINE' writes "
-            "the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, with the exact values "
-            "('clumpprops export --help' says which files)."
-        ),
+            "input or geometry, 2 bad options."
+        ) + "\n\nsubcommands ('clumpprops NAME --help' says what each reads and writes):\n" + "\n".join(
+            textwrap.fill(text, initial_indent=f"  {name:<9}", subsequent_indent=" " * 11)
+            for name, (_, text) in SUBCOMMANDS.items()),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("file", metavar="FILE", help="textClumps file, or '-' for standard input")
     p.add_argument(
@@ -248,14 +257,14 @@ FORMATTERS = {"table": format_table, "csv": format_csv, "json": format_json}
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of ``python -m clumpprops`` and the ``clumpprops`` console script; returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["export"]:  # clumpprops export FILE --to ENGINE (clumpprops/io/cli.py, docs/engines.md)
-        from .io.cli import main as export_main
+    if argv[:1] and argv[0] in SUBCOMMANDS:  # clumpprops NAME ...: the subcommand's own main
+        from importlib import import_module
 
         try:
-            status = export_main(argv[1:])
+            status = import_module(SUBCOMMANDS[argv[0]][0]).main(argv[1:])
             sys.stdout.flush()      # here, not at exit, so that a closed pipe is caught below
             return status
-        except BrokenPipeError:  # its listing piped into head
+        except BrokenPipeError:  # its output piped into head
             sys.stdout = None
             return 0
     parser = build_parser()
