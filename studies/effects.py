@@ -235,7 +235,7 @@ def case_errors(shape, density, case):
 
 
 def shape_name(shape):
-    return shape["kind"] if shape["kind"] != "file" else os.path.basename(shape["path"])
+    return shape["kind"] if shape["kind"] != "file" else os.path.splitext(os.path.basename(shape["path"]))[0]
 
 
 def effect_rows(specs, values=None):
@@ -273,7 +273,8 @@ def write(specs, path, values=None):
 # The studies of the project's programme, whose run records the headline (results/effects.csv,
 # results/README.md) reads, by spec file name.  Listed, never discovered: a new spec (a user's own
 # study, or one of the project's before it is added here) cannot change the headline.
-HEADLINE = ("dimer_equal_energy", "dimer_paired", "dimer_paired_same_spin", "shapes", "sphere_gas", "stiffness")
+HEADLINE = ("dimer_equal_energy", "dimer_paired", "dimer_paired_same_spin", "grains", "shapes", "sphere_gas",
+            "stiffness")
 
 
 def results_specs(spec_dir=None, names=HEADLINE):

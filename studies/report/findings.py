@@ -73,11 +73,16 @@ def _span(values):
     return (min(values), max(values)) if values else (math.nan, math.nan)
 
 
+def _overlap(row):
+    """A table row's overlap D/d_s as a float; None for a shape without one (a grain from a file)."""
+    return float(row["overlap"]) if row["overlap"] not in ("", None) else None
+
+
 def _shapes(effect_rows, maps, checks):
     """The other shapes' bullet: the maps at 1e7 and 1e9 Pa and each gas row beside its map."""
     m7, m9 = _shape_maps(maps, 1e7), _shape_maps(maps, 1e9)
     dimers = {k: v for k, v in m7.items() if k[0] == "dimer" and k[1] != 0.5}
-    gas = {(e["shape"], float(e["overlap"]), e["protocol"]): e for e in effect_rows
+    gas = {(e["shape"], _overlap(e), e["protocol"]): e for e in effect_rows
            if e["case"] == "uncorrected" and float(e["youngs_modulus"]) == 1e7 and e["n_pairs"] >= 2}
     return dict(m7=m7, m9=m9, gas=gas,
                 soft9=_span([v["soft"]["relative"] for k, v in m9.items() if v["soft"] and k != ("dimer", 0.5)]),
