@@ -53,7 +53,7 @@ fix pts1 all particletemplate/multisphere {seed} atom_type 1 density constant 11
 
 def liggghts_mc(clump, ntry, seed, work):
     export([clump], "liggghts", work, density=RHO, force=True)   # once per seed: the same files again
-    (work / "in.mc").write_text(LIG.format(seed=seed, n=clump.n_spheres, ntry=ntry, file=f"{clump.name}.multisphere"))
+    (work / "in.mc").write_text(LIG.format(seed=seed, n=clump.n_spheres, ntry=ntry, file=f"{clump.name}_spheres.multisphere"))
     subprocess.run([LIGGGHTS, "-in", "in.mc", "-log", "log.mc"], cwd=work, capture_output=True, check=True, timeout=600)
     log = (work / "log.mc").read_text()
     mass = float(re.search(r"mass = ([^,]+),", log).group(1))

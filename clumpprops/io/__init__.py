@@ -57,7 +57,9 @@ class ExportRefused(ClumpFileError):
 
 def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.0, method: str = "exact",
            source: str = "", scale: float = 1.0, stem: Optional[str] = None, mp=None,
-           warn: Optional[Callable[[str], None]] = None, templates: bool = True, force: bool = False) -> List:
+           warn: Optional[Callable[[str], None]] = None, templates: bool = True, force: bool = False,
+           deck: bool = False, velocity=(0.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0), steps: int = 1000,
+           dt: Optional[float] = None) -> List:
     """Write the files DEM engine `to` reads for `clumps` into `out_dir`.
 
     Parameters
@@ -92,6 +94,17 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
         per clump costs more than everything else.
     force : bool, optional
         True replaces existing output files (never the input file `source`).
+    deck : bool, optional
+        True also writes a runnable input deck (``liggghts``, ``lammps``, ``yade``): the
+        clumps in an empty box without gravity, run for `steps` steps; see
+        :mod:`clumpprops.io.decks`.
+    velocity, spin : sequence of 3 float, optional
+        With `deck`: every clump's initial velocity (m/s) and angular velocity (rad/s, space
+        frame).
+    steps : int, optional
+        With `deck`: the number of steps the deck runs (at least 2).
+    dt : float or None, optional
+        With `deck`: the timestep in s; None for :func:`clumpprops.io.decks.default_dt`.
 
     Returns
     -------
@@ -101,8 +114,9 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
     Raises
     ------
     ValueError
-        If `to` is not one of :data:`ENGINES`, `clumps` is empty, or `templates` is False
-        for an engine other than ``lammps`` and ``deme``.
+        If `to` is not one of :data:`ENGINES`, `clumps` is empty, `templates` is False
+        for an engine other than ``lammps`` and ``deme``, `deck` is True for an engine
+        without a deck, or a clump has one sphere and `to` is ``lammps``.
     ExportRefused
         If a file would replace `source`, or (without `force`) an existing file; then
         nothing is written.
@@ -122,12 +136,23 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
         if to not in ("lammps", "deme"):
             raise ValueError(f"templates=False applies to lammps and deme; {to} needs its per-clump files")
         kw["templates"] = False
+    if deck:
+        from . import decks
+
+        if to not in decks.DECK_ENGINES:
+            raise ValueError(f"deck=True applies to {', '.join(decks.DECK_ENGINES)}; {to} has documented snippets "
+                             "in docs/engines.md")
+        if to == "lammps":
+            kw.update(velocity=velocity, spin=spin)
     out = Path(out_dir)
     made_out = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".clumpprops-export-", dir=out))
     try:
         staged = mod.write(clumps, mp, stage, density, method, source=source, scale=scale, stem=stem, **kw)
+        if deck:
+            staged += decks.write(to, clumps, mp, stage, stem or (clumps[0].name if len(clumps) == 1 else "clumps"),
+                                  density, method, velocity, spin, steps, dt, source=source, scale=scale)
         targets = [out / Path(p).relative_to(stage) for p in staged]
         _refuse_overwrites(targets, source, force)
         for p, t in zip(staged, targets):

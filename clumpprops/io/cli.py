@@ -2,7 +2,8 @@
 
     clumpprops export FILE --to {liggghts,lammps,deme,mclump,yade} [--out DIR]
                       [--density RHO] [--method M] [--scale S] [--from FMT] [--name STEM]
-                      [--no-templates]
+                      [--no-templates] [--force] [--deck [--velocity VX VY VZ] [--spin WX WY WZ]
+                      [--steps N] [--dt DT]]
 
 Prints one line per file written and a short summary per clump on stdout; warnings (DEME
 float32 precision) on stderr.  Errors are one line ``clumpprops: error: FILE:LINE: reason``,
@@ -11,6 +12,7 @@ exit status 1; bad options exit with status 2.  See docs/engines.md.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Optional, Sequence
 
@@ -20,10 +22,44 @@ from . import ENGINES, FORMATS, ClumpFileError, compute, export, read
 
 PROG = "clumpprops export"
 
+FILES = """files written into --out (STEM = --name, else the clump's name for one clump, else 'clumps'):
+  liggghts  NAME_spheres.multisphere  per clump of 2+ spheres: 'x y z r' lines (m), centred on the
+                                      centre of mass, input axes, no comments
+            STEM_liggghts.in          one 'fix particletemplate/multisphere ... mass M inertia_tensor
+                                      ... use_density' per clump (particletemplate/sphere for a
+                                      one-sphere clump) and 'fix pdd1 particledistribution/discrete';
+                                      names its sphere files relative to --out: run LIGGGHTS there
+  lammps    STEM.rigid                fix rigid infile: mass, centre of mass, inertia tensor (and
+                                      with --deck the initial velocity and angular momentum)
+            STEM.data                 the member spheres (atom_style hybrid sphere molecular)
+            NAME.mol                  per clump: molecule file with mass, com, inertia (not with
+                                      --no-templates); one-sphere clumps are refused
+  deme      STEM_deme.json            per clump mass, principal moments, radii, relPos, com, axes
+            NAME_deme.csv             per clump: 'x,y,z,r' in the principal frame (not with
+                                      --no-templates)
+  mclump    NAME/Clump/Clump.txt, NAME/Inertia/{Mass,TOI,PD}.txt, NAME/clumpprops.txt
+                                      per clump: MClump's folder (principal frame), and the frame
+  yade      STEM_textclumps.txt       'x y z r clumpId' lines; exact values in the comments (load
+                                      with clumpprops.yade.text_clumps)
+with --deck (liggghts, lammps, yade), run in --out:
+  liggghts  STEM_deck_liggghts.in     liggghts -in STEM_deck_liggghts.in; writes
+                                      STEM_liggghts_start.dump and STEM_liggghts_end.dump
+  lammps    STEM_deck_lammps.in       lmp -in STEM_deck_lammps.in; writes STEM_lammps.dump
+  yade      STEM_deck_yade.py         yade -x STEM_deck_yade.py; prints mass, tensor, momentum
+Nothing is written over FILE, nor over an existing file without --force; a refused export
+writes nothing."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``clumpprops export: error: ...``), status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog=PROG,
+    p = _Parser(
+        prog=PROG, epilog=FILES, formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Write the files a DEM engine reads for the clumps in FILE, with the clumps' exact mass, "
         "centre of mass and inertia (SI units). Input formats: " + ", ".join(FORMATS) + " (from the file's first "
         "lines: comma tables = csv, 'N atoms' = LAMMPS molecule, 'x y z r id' = YADE textClumps, 'x y z r' = "
@@ -47,6 +83,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true",
                    help="replace output files that exist (never the input FILE itself); without it nothing is written "
                    "when any output file exists")
+    p.add_argument("--deck", action="store_true",
+                   help="liggghts, lammps, yade: also write a runnable deck: the clumps in an empty box without "
+                   "gravity, run for --steps steps (docs/engines.md)")
+    p.add_argument("--velocity", type=float, nargs=3, default=(0.0, 0.0, 0.0), metavar=("VX", "VY", "VZ"),
+                   help="with --deck: initial velocity of every clump, m/s (default: 0 0 0)")
+    p.add_argument("--spin", type=float, nargs=3, default=(0.0, 0.0, 0.0), metavar=("WX", "WY", "WZ"),
+                   help="with --deck: initial angular velocity of every clump, rad/s, space frame (default: 0 0 0)")
+    p.add_argument("--steps", type=int, default=1000, metavar="N", help="with --deck: steps to run (default: 1000)")
+    p.add_argument("--dt", type=_positive_float, metavar="DT",
+                   help="with --deck: timestep in s (default: a fifth of the smallest sphere's Rayleigh time, "
+                   "at most 0.01 rad per step)")
     p.add_argument("--version", action="version", version=f"clumpprops {__version__}")
     return p
 
@@ -56,13 +103,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser.parse_args(argv)
     if args.no_templates and args.to not in ("lammps", "deme"):
         parser.error(f"--no-templates applies to --to lammps and deme; {args.to} needs its per-clump files")
+    _check_deck_options(parser, args)
     warnings = []
     try:
         clumps = read(args.file, args.fmt, scale=args.scale)
         mp = compute(clumps, args.density, args.method)
         paths = export(clumps, args.to, args.out, args.density, args.method, source=args.file, scale=args.scale,
                        stem=args.name, mp=mp, warn=warnings.append,
-                       templates=not args.no_templates, force=args.force)
+                       templates=not args.no_templates, force=args.force, deck=args.deck,
+                       velocity=args.velocity, spin=args.spin, steps=args.steps, dt=args.dt)
     except ClumpGeometryError as exc:
         for c in clumps:  # point at the clump and its lines
             try:
@@ -94,6 +143,25 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     else:
         out.write(f"{len(paths)} files written under {args.out}\n")
     return 0
+
+
+def _check_deck_options(parser, args):
+    """Exit with status 2 on deck options without --deck, a deck for an engine without one, or bad values."""
+    from .decks import DECK_ENGINES
+
+    zero = (0.0, 0.0, 0.0)
+    given = [name for name, unset in (("--velocity", tuple(args.velocity) == zero), ("--spin", tuple(args.spin) == zero),
+                                      ("--steps", args.steps == 1000), ("--dt", args.dt is None)) if not unset]
+    if given and not args.deck:
+        parser.error(f"{given[0]} applies with --deck")
+    if args.deck and args.to not in DECK_ENGINES:
+        parser.error(f"--deck applies to --to {', '.join(DECK_ENGINES)}; {args.to} has documented snippets in "
+                     "docs/engines.md")
+    if args.steps < 2:
+        parser.error(f"--steps must be at least 2, got {args.steps}")
+    bad = [x for x in (*args.velocity, *args.spin) if not math.isfinite(x)]
+    if bad:
+        parser.error(f"--velocity and --spin take finite numbers, got {bad[0]}")
 
 
 def _fail(message: str) -> int:

@@ -20,6 +20,10 @@ Files (SI; use ``units si`` in LAMMPS):
   ``Ixx Iyy Izz Iyz Ixz Ixy``: see :func:`molecule_inertia_words`), sections
   ``Coords``, ``Types``, ``Diameters``, ``Masses`` (sphere masses rho 4/3 pi r^3; the
   body's mass and inertia come from the header).
+
+A one-sphere clump is refused (``ValueError``, nothing written): ``fix rigid`` and
+``fix rigid/small`` stop on a one-atom body ("One or zero atoms in rigid body"); such a
+particle is a plain ``atom_style sphere`` atom, whose mass and inertia LAMMPS gets right.
 """
 from __future__ import annotations
 
@@ -46,7 +50,9 @@ def infile_line(body_id: int, mass: float, com, inertia, v=(0.0, 0.0, 0.0), angm
     return " ".join(cells)
 
 
-def infile_text(clumps, mp, header, angmom=None) -> str:
+def infile_text(clumps, mp, header, angmom=None, velocity=None) -> str:
+    """The ``fix rigid`` infile: one line per body; `angmom` and `velocity` (M x 3, or None for
+    zeros) fill the ``lx ly lz`` and ``vxcm vycm vzcm`` columns."""
     P = Props(mp)
     out = [f"# {h}" for h in header]
     out.append("# ID masstotal xcm ycm zcm ixx iyy izz ixy ixz iyz vxcm vycm vzcm lx ly lz ixcm iycm izcm")
@@ -55,8 +61,9 @@ def infile_text(clumps, mp, header, angmom=None) -> str:
     M = len(clumps)
     I = P.inertia
     L = np.zeros((M, 3)) if angmom is None else np.asarray(angmom, dtype=float).reshape(M, 3)
+    V = np.zeros((M, 3)) if velocity is None else np.broadcast_to(np.asarray(velocity, dtype=float), (M, 3))
     cols = np.column_stack([P.mass, P.com, I[:, 0, 0], I[:, 1, 1], I[:, 2, 2], I[:, 0, 1], I[:, 0, 2], I[:, 1, 2],
-                            np.zeros((M, 3)), L])
+                            V, L])
     out.extend(f"{k + 1} {row} 0 0 0" for k, row in enumerate(fmt_rows(cols)))
     return "\n".join(out) + "\n"
 
@@ -112,8 +119,15 @@ def molecule_text(clump: Clump, mass, com, inertia, density: float, header) -> s
 
 
 def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, source: str = "", scale: float = 1.0,
-          stem: str = None, templates: bool = True) -> List[Path]:
-    """``STEM.rigid`` and ``STEM.data`` for all clumps, and (``templates``) one ``NAME.mol`` per clump."""
+          stem: str = None, templates: bool = True, velocity=None, spin=None) -> List[Path]:
+    """``STEM.rigid`` and ``STEM.data`` for all clumps, and (``templates``) one ``NAME.mol`` per clump.
+
+    `velocity` (m/s) and `spin` (rad/s, space frame), when given, go into every body's line of the
+    infile as ``vxcm vycm vzcm`` and ``lx ly lz`` = I w (I the body's inertia tensor)."""
+    single = [c.name for c in clumps if c.n_spheres < 2]
+    if single:
+        raise ValueError(f"clump {single[0]} has one sphere: LAMMPS' fix rigid refuses one-atom bodies "
+                         "(insert it as a plain atom_style sphere atom)")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     P = Props(mp)
@@ -121,7 +135,8 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     stem = stem or (clumps[0].name if len(clumps) == 1 else "clumps")
     written = []
     p = out_dir / f"{stem}.rigid"
-    p.write_text(infile_text(clumps, mp, hdr))
+    angmom = None if spin is None else P.inertia @ np.asarray(spin, dtype=float)
+    p.write_text(infile_text(clumps, mp, hdr, angmom=angmom, velocity=velocity))
     written.append(p)
     p = out_dir / f"{stem}.data"
     p.write_text(data_text(clumps, density, hdr))

@@ -1,12 +1,20 @@
 """LIGGGHTS (3.x, the engine of Parteli's paper): ``fix particletemplate/multisphere`` with given values.
 
-For each clump a sphere file ``NAME.multisphere`` (``x y z r`` per line, centred on the
-clump's centre of mass, input axes) and, in ``NAME_liggghts.in`` (one file for all clumps,
-to ``include``), the template line::
+For each clump a sphere file ``NAME_spheres.multisphere`` (``x y z r`` per line, centred on
+the clump's centre of mass, input axes, no comment lines) and, in ``STEM_liggghts.in`` (one
+file for all clumps, to ``include``), the template line::
 
     fix ptsK all particletemplate/multisphere SEED atom_type 1 density constant RHO nspheres N
-        ntry 1000000 spheres file NAME.multisphere scale 1 type K
+        ntry 1000000 spheres file NAME_spheres.multisphere scale 1 type K
         mass M inertia_tensor Ixx Ixy Ixz Iyy Iyz Izz use_density
+
+The path rule: LIGGGHTS opens the sphere file relative to the folder it runs in, and the
+deck is run from the output folder, so the template names the file relative to that folder.
+The ``_spheres`` suffix keeps the name distinct from the user's own sphere file (commonly
+``NAME.multisphere``), which a run from another folder would otherwise read instead.
+A one-sphere clump (LIGGGHTS refuses ``nspheres 1``) becomes the plain sphere
+``fix ptsK all particletemplate/sphere SEED atom_type 1 density constant RHO radius constant R``:
+a single sphere's exact mass and inertia are the ones LIGGGHTS computes itself.
 
 Facts from LIGGGHTS-PUBLIC 3.8.0 ``src/fix_template_multisphere.cpp``:
 
@@ -68,6 +76,28 @@ def sphere_file_text(clump: Clump, com) -> str:
     return "\n".join(fmt_rows(np.column_stack([rel, clump.radii]))) + "\n"
 
 
+def sphere_file_name(name: str) -> str:
+    """The name of clump `name`'s sphere file, relative to the output folder the deck runs in.
+
+    Parameters
+    ----------
+    name : str
+        The clump's name.
+
+    Returns
+    -------
+    str
+        ``NAME_spheres.multisphere``: distinct from the user's own ``NAME.multisphere``.
+    """
+    return f"{name}_spheres.multisphere"
+
+
+def sphere_line(k: int, seed: int, radius: float, density: float, atom_type: int = 1) -> str:
+    """The ``fix particletemplate/sphere`` line of a one-sphere clump (template ``ptsK``)."""
+    return (f"fix pts{k} all particletemplate/sphere {seed} atom_type {atom_type} density constant {fnum(density)} "
+            f"radius constant {fnum(radius)}")
+
+
 def fix_line(k: int, seed: int, clump: Clump, file_name: str, mass: float, inertia, density: float,
              atom_type: int = 1, ntry: int = NTRY) -> str:
     return (
@@ -87,23 +117,25 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     hdr_text = "".join(f"# {h}\n" for h in hdr)
     written, fixes = [], []
     sd = seeds(len(clumps) + 1)
-    single = [c.name for c in clumps if c.n_spheres < 2]
-    if single:
-        raise ValueError(f"clump {single[0]} has one sphere: LIGGGHTS' particletemplate/multisphere needs two or more "
-                         "(insert it as a sphere with particletemplate/sphere)")
     for k, c in enumerate(clumps):
-        fname = f"{c.name}.multisphere"
+        summary = (f"# {c.name}: mass {fnum(P.mass[k])} kg, principal moments "
+                   f"{' '.join(fnum(x) for x in P.moments[k])} kg m^2")
+        if c.n_spheres == 1:
+            fixes.append(f"# {c.name}: one sphere, a plain LIGGGHTS sphere (particletemplate/sphere) centred at "
+                         f"{' '.join(fnum(x) for x in P.com[k])} m in the source file's frame")
+            fixes += [summary, sphere_line(k + 1, sd[k], float(c.radii[0]), density)]
+            continue
+        fname = sphere_file_name(c.name)
         (out_dir / fname).write_text(sphere_file_text(c, P.com[k]))
         written.append(out_dir / fname)
         fixes.append(f"# {c.name}: {c.n_spheres} spheres in {fname} (x y z r in m, centred on the centre of mass; "
                      f"in the source file's frame the centre of mass is at {' '.join(fnum(x) for x in P.com[k])} m)")
-        fixes.append(f"# {c.name}: mass {fnum(P.mass[k])} kg, principal moments "
-                     f"{' '.join(fnum(x) for x in P.moments[k])} kg m^2")
-        fixes.append(fix_line(k + 1, sd[k], c, fname, P.mass[k], P.inertia[k], density))
+        fixes += [summary, fix_line(k + 1, sd[k], c, fname, P.mass[k], P.inertia[k], density)]
     stem = stem or (clumps[0].name if len(clumps) == 1 else "clumps")
     weights = " ".join(f"pts{k + 1} {fnum(1.0 / len(clumps))}" for k in range(len(clumps)))
     text = [hdr_text.rstrip("\n"),
-            "# include this file after the material fixes; the sphere files are read relative to the working directory.",
+            "# include this file after the material fixes, running LIGGGHTS in this file's folder: the sphere files",
+            "# are named relative to it.",
             "# inertia_tensor: Ixx Ixy Ixz Iyy Iyz Izz about the centre of mass (tensor components, off-diagonals -sum m x y)"]
     text += fixes
     text.append(f"fix pdd1 all particledistribution/discrete {sd[-1]} {len(clumps)} {weights}")
