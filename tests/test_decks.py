@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 
 from clumpprops import mass_properties
+from clumpprops.io import Clump, export
 
-from _engines import ASYM_C, ASYM_R, LAMMPS, LIGGGHTS, RHO, read_dump, run, thermo_rows
+from _engines import ASYM_C, ASYM_R, LAMMPS, LIGGGHTS, LIGGGHTS_BOX, RHO, read_dump, run, thermo_rows
 
 SPINS = [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1)]
 ENGINES = {"liggghts": LIGGGHTS, "lammps": LAMMPS}
@@ -116,3 +117,26 @@ def test_a_free_spin_in_the_deck_keeps_its_angular_momentum_with_the_exact_tenso
           f"{drift_sum:.1e} with the summed one")
     assert drift < 1e-8
     assert drift_sum > 1e-4
+
+
+def test_liggghts_reads_the_exported_templates_under_screen_none(tmp_path):
+    """LIGGGHTS 3.8.0 crashes on a '#' line in a sphere file when run with -screen none; the
+    exported sphere file has none (and the same file with one comment line does crash)."""
+    export([Clump(ASYM_C, ASYM_R, name="asym")], "liggghts", tmp_path, density=RHO)
+    deck = tmp_path / "in.templates"
+    deck.write_text(LIGGGHTS_BOX + "neighbor 0.01 bin\n"
+                    "fix m1 all property/global youngsModulus peratomtype 1.e7\n"
+                    "fix m2 all property/global poissonsRatio peratomtype 0.4\n"
+                    "fix m3 all property/global coefficientRestitution peratomtypepair 1 0.9\n"
+                    "fix m4 all property/global coefficientFriction peratomtypepair 1 0.0\n"
+                    "pair_style gran model hertz tangential history\npair_coeff * *\ntimestep 1e-5\n"
+                    "include asym_liggghts.in\nrun 0\n")
+
+    def status():
+        return subprocess.run([LIGGGHTS, "-in", deck.name, "-log", "log.out", "-screen", "none"], cwd=tmp_path,
+                              capture_output=True, timeout=120, stdin=subprocess.DEVNULL).returncode
+
+    assert status() == 0 and "Loop time" in (tmp_path / "log.out").read_text()
+    spheres = tmp_path / "asym_spheres.multisphere"
+    spheres.write_text("# x y z r\n" + spheres.read_text())
+    assert status() != 0

@@ -115,7 +115,9 @@ def liggghts_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: 
     ins = f"{fnum(-half_ins)} {fnum(half_ins)} " * 3
     cols = "id x y z vx vy vz"
     lines = [f"# {h}" for h in header] + [
-        f"# run in this folder: liggghts -in {stem}_deck_liggghts.in", "atom_style sphere",
+        f"# run in this folder: liggghts -in {stem}_deck_liggghts.in (or -screen FILE: under -screen none",
+        "# LIGGGHTS 3.8.0's fix insert/pack crashes, its Region::reset_random prints to the missing screen)",
+        "atom_style sphere",
         "atom_modify map array sort 0 0", "boundary f f f", "newton off", "communicate single vel yes",
         "processors 1 1 1", "units si", f"region box block {box}units box", "create_box 1 box",
         f"neighbor {fnum(0.2 * rmin)} bin", "neigh_modify delay 0",
@@ -190,16 +192,15 @@ def yade_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: int,
     """
     lines = [f"# {h}" for h in header] + [
         f"# run in this folder: yade -x {stem}_deck_yade.py  (clumpprops must be importable by YADE's Python)",
-        "import os", "import numpy as np",
+        "import numpy as np",
         "from yade import O", "from yade.minieigenHP import Vector3",
         "from yade.wrapper import (FrictMat, ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb, InteractionLoop,",
         "                          Ig2_Sphere_Sphere_ScGeom, Ip2_FrictMat_FrictMat_FrictPhys, Law2_ScGeom_FrictPhys_CundallStrack,",
         "                          NewtonIntegrator)",
         "from clumpprops import yade as cy", "",
         f"VELOCITY, SPIN, STEPS, DT = {list(map(float, velocity))!r}, {list(map(float, spin))!r}, {int(steps)}, {float(dt)!r}",
-        "here = os.path.dirname(os.path.abspath(__file__)) if '__file__' in globals() else os.getcwd()",
         f"O.materials.append(FrictMat(density={float(density)!r}, young=1e7, poisson=0.4, frictionAngle=0.0, label='mat'))",
-        f"clumps = cy.text_clumps(os.path.join(here, '{stem}_textclumps.txt'), material='mat')",
+        f"clumps = cy.text_clumps('{stem}_textclumps.txt', material='mat')  # relative to the folder yade runs in",
         "O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),",
         "             InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],",
         "                             [Law2_ScGeom_FrictPhys_CundallStrack()]),",
