@@ -76,33 +76,14 @@ def _dump_format(ncols: int) -> str:
     return '"%d' + " %.17g" * ncols + '"'
 
 
-def liggghts_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: int, dt: float, header) -> str:
-    """The LIGGGHTS deck: ``include STEM_liggghts.in``, insert, ``fix multisphere``, run.
+def _thermo(steps: int) -> List[str]:
+    """The thermo lines both LIGGGHTS and LAMMPS decks print: step, atoms, ke, erotate (17 digits)."""
+    return ["thermo_style custom step atoms c_ke c_er", "thermo_modify format float %.17g norm no",
+            f"thermo {max(1, steps // 10)}"]
 
-    Parameters
-    ----------
-    clumps : sequence of Clump
-        The clumps (their templates are in ``STEM_liggghts.in``).
-    mp : clumpprops.MassProperties
-        Their mass properties.
-    stem : str
-        The stem of the exported files.
-    density : float
-        Density, kg/m^3.
-    velocity, spin : sequence of 3 float
-        Initial velocity (m/s) and angular velocity (rad/s, space frame) of every clump.
-    steps : int
-        Number of steps after the insertion step.
-    dt : float
-        Timestep, s.
-    header : list of str
-        Comment lines the deck starts with.
 
-    Returns
-    -------
-    str
-        The deck's text.
-    """
+def _liggghts(clumps, mp, stem: str, velocity, spin, steps: int, dt: float, header) -> str:
+    """The LIGGGHTS deck: ``include STEM_liggghts.in``, insert, ``fix multisphere``, run (see :func:`write`)."""
     P = Props(mp)
     b = _reach(clumps, P.com)
     n = len(clumps)
@@ -132,9 +113,7 @@ def liggghts_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: 
         "fix integr all multisphere"]
     if single:
         lines.append("fix single all nve/sphere  # the one-sphere clumps (plain spheres)")
-    lines += ["compute ke all ke/multisphere", "compute er all erotate/multisphere",
-              "thermo_style custom step atoms c_ke c_er", "thermo_modify format float %.17g norm no",
-              f"thermo {max(1, steps // 10)}", "run 1",
+    lines += ["compute ke all ke/multisphere", "compute er all erotate/multisphere"] + _thermo(steps) + ["run 1",
               f"dump start all custom 1 {stem}_liggghts_start.dump {cols}",
               f"dump_modify start format {_dump_format(6)} sort id", "run 0", "undump start",
               f"dump end all custom {steps} {stem}_liggghts_end.dump {cols}",
@@ -142,19 +121,9 @@ def liggghts_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: 
     return "\n".join(lines) + "\n"
 
 
-def lammps_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: int, dt: float, header) -> str:
-    """The LAMMPS deck: ``read_data STEM.data``, ``fix rigid/nve ... infile STEM.rigid``, run.
-
-    Parameters
-    ----------
-    clumps, mp, stem, density, velocity, spin, steps, dt, header
-        As for :func:`liggghts_deck`; the initial state is in ``STEM.rigid``.
-
-    Returns
-    -------
-    str
-        The deck's text.
-    """
+def _lammps(clumps, mp, stem: str, velocity, spin, steps: int, dt: float, header) -> str:
+    """The LAMMPS deck: ``read_data STEM.data``, ``fix rigid/nve ... infile STEM.rigid`` (which holds
+    the initial state), run."""
     P = Props(mp)
     b = _reach(clumps, P.com)
     travel = float(np.linalg.norm(velocity)) * steps * dt
@@ -169,27 +138,15 @@ def lammps_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: in
         f"pair_style zero {fnum(2.0 * b)}", "pair_coeff * *", f"neighbor {fnum(0.2 * rmin)} bin",
         "neigh_modify exclude molecule/intra all", f"timestep {fnum(dt)}",
         f"fix rb all rigid/nve molecule infile {stem}.rigid",
-        "compute ke all ke/rigid rb", "compute er all erotate/rigid rb",
-        "thermo_style custom step atoms c_ke c_er", "thermo_modify format float %.17g norm no",
-        f"thermo {max(1, steps // 10)}",
+        "compute ke all ke/rigid rb", "compute er all erotate/rigid rb", *_thermo(steps),
         f"dump d all custom {steps} {stem}_lammps.dump {cols}",
         "dump_modify d format float %.17g sort id", f"run {steps}"]
     return "\n".join(lines) + "\n"
 
 
-def yade_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: int, dt: float, header) -> str:
-    """The YADE deck: ``clumpprops.yade.text_clumps(STEM_textclumps.txt)``, the initial state, run.
-
-    Parameters
-    ----------
-    clumps, mp, stem, density, velocity, spin, steps, dt, header
-        As for :func:`liggghts_deck`; the clumps are read from ``STEM_textclumps.txt``.
-
-    Returns
-    -------
-    str
-        The deck's text (Python for ``yade -x``; needs clumpprops importable in YADE's Python).
-    """
+def _yade(clumps, mp, stem: str, velocity, spin, steps: int, dt: float, header, density: float) -> str:
+    """The YADE deck (Python for ``yade -x``): ``clumpprops.yade.text_clumps(STEM_textclumps.txt)``,
+    the initial state, run."""
     lines = [f"# {h}" for h in header] + [
         f"# run in this folder: yade -x {stem}_deck_yade.py  (clumpprops must be importable by YADE's Python)",
         "import numpy as np",
@@ -226,8 +183,8 @@ def yade_deck(clumps, mp, stem: str, density: float, velocity, spin, steps: int,
     return "\n".join(lines) + "\n"
 
 
-_DECKS = {"liggghts": (liggghts_deck, "{}_deck_liggghts.in"), "lammps": (lammps_deck, "{}_deck_lammps.in"),
-          "yade": (yade_deck, "{}_deck_yade.py")}
+_DECKS = {"liggghts": (_liggghts, "{}_deck_liggghts.in"), "lammps": (_lammps, "{}_deck_lammps.in"),
+          "yade": (_yade, "{}_deck_yade.py")}
 
 
 def write(to: str, clumps: Sequence[Clump], mp, out_dir, stem: str, density: float, method: str,
@@ -284,6 +241,6 @@ def write(to: str, clumps: Sequence[Clump], mp, out_dir, stem: str, density: flo
         f"initial velocity {' '.join(fnum(x) for x in velocity)} m/s, angular velocity "
         f"{' '.join(fnum(x) for x in spin)} rad/s, {int(steps)} steps of {fnum(dt)} s, no gravity"])
     path = Path(out_dir) / name.format(stem)
-    path.write_text(make(clumps, mp, stem, density, tuple(map(float, velocity)), tuple(map(float, spin)),
-                         int(steps), dt, header))
+    args = (clumps, mp, stem, tuple(map(float, velocity)), tuple(map(float, spin)), int(steps), dt, header)
+    path.write_text(make(*args, density) if to == "yade" else make(*args))
     return [path]
