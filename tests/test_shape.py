@@ -127,6 +127,7 @@ def test_general_clump_area_within_four_standard_errors(seed, n):
 
 def test_area_against_converging_mesh():
     trimesh = pytest.importorskip("trimesh")
+    pytest.importorskip("manifold3d")  # trimesh's boolean engine
     rng = np.random.default_rng(7)
     c, r = _random_clump(rng, 6)
     exact = _area(c, r)
@@ -184,10 +185,21 @@ def test_descriptor_definitions_for_a_dimer():
     assert s.elongation == pytest.approx(2 * r / (2 * r + D), rel=1e-14)
     assert s.flatness == pytest.approx(1.0, rel=1e-14)
     assert s.bounding_radius == pytest.approx(r + D / 2, rel=1e-13)
-    mp = clumpprops.mass_properties([[0, 0, 0], [0, 0, D]], [r, r], density=2500.0)
-    np.testing.assert_allclose(s.kappa, 4 * mp.principal_moments / (mp.mass * s.diameter**2), rtol=1e-13)
-    assert s.diameter == pytest.approx((6 * mp.volume / np.pi) ** (1 / 3), rel=1e-14)
+    lens = np.pi * (4 * r + D) * (2 * r - D) ** 2 / 12  # volume of the overlap of two equal balls
+    V = 2 * 4 / 3 * np.pi * r**3 - lens
+    assert s.diameter == pytest.approx((6 * V / np.pi) ** (1 / 3), rel=1e-14)
     assert s.sphericity < 1.0
+
+
+def test_tangent_dimer_closed_forms():
+    """Two touching balls (m_s, r each): I_axial = 2 (2/5) m_s r^2, I_perp = 2 (2/5 + 1) m_s r^2, d_v = 2^(4/3) r."""
+    r = 0.3
+    s = shape_descriptors([[0, 0, 0], [2 * r, 0, 0]], [r, r])
+    np.testing.assert_allclose(s.kappa, np.array([0.4, 1.4, 1.4]) / 2 ** (2 / 3), rtol=1e-13)
+    np.testing.assert_allclose(s.kappa_bounding, [0.1, 0.35, 0.35], rtol=1e-13)  # sigma = 4 r
+    np.testing.assert_allclose(s.moment_ratios, [0.4 / 1.4, 1.0], rtol=1e-13)
+    assert s.sphericity == pytest.approx(2 ** (-1 / 3), rel=1e-14)
+    assert s.elongation == pytest.approx(0.5, rel=1e-14)
 
 
 def test_invalid_input_raises_value_error():
