@@ -108,7 +108,7 @@ def _surface_monte_carlo(c, r, rng, n=40000):
     for i in range(len(r)):
         u = rng.normal(size=(n, 3))
         p = c[i] + r[i] * u / np.linalg.norm(u, axis=1)[:, None]
-        others = np.arange(len(r)) != i
+        others = (np.arange(len(r)) != i) & (np.linalg.norm(c - c[i], axis=1) < r + r[i])  # the overlapping ones
         dist = np.linalg.norm(p[:, None, :] - c[others][None], axis=2)
         f = np.mean(np.all(dist > r[others], axis=1))
         area += 4 * np.pi * r[i] ** 2 * f
@@ -123,6 +123,28 @@ def test_general_clump_area_within_four_standard_errors(seed, n):
     estimate, se = _surface_monte_carlo(c, r, rng)
     assert se > 0
     assert abs(_area(c, r) - estimate) <= 4 * se
+
+
+def test_dense_clump_with_redundant_spheres():
+    """Spheres with more than 48 caps (the core's subset path); duplicates and buried spheres add nothing."""
+    rng = np.random.default_rng(3)
+    c, r = grain_clumps(150, rng, 100.0)
+    caps = (np.linalg.norm(c[:, None] - c[None], axis=2) < r[:, None] + r[None]).sum(axis=1) - 1
+    assert caps.max() > 48
+    area = _area(c, r)
+    padded = _area(np.vstack([c, c[:40], c[:5] + 0.01]), np.r_[r, r[:40], r[:5] * 0.5])
+    assert padded == pytest.approx(area, rel=1e-12)
+    estimate, se = _surface_monte_carlo(c, r, rng, n=8000)
+    assert abs(area - estimate) <= 4 * se
+
+
+def grain_clumps(N, rng, neighbours):
+    """N spheres (radii 0.8-1.2) in an elongated ellipsoid, each overlapping about `neighbours` others."""
+    n = neighbours / (4.0 / 3.0 * np.pi * 8.0)
+    a = (N / n / (4.0 / 3.0 * np.pi * 4.5)) ** (1.0 / 3.0)
+    u = rng.normal(size=(N, 3))
+    u *= rng.random((N, 1)) ** (1.0 / 3.0) / np.linalg.norm(u, axis=1)[:, None]
+    return u * np.array([3.0, 1.5, 1.0]) * a, rng.uniform(0.8, 1.2, N)
 
 
 def test_area_against_converging_mesh():
