@@ -191,9 +191,17 @@ def bounding_ball(centers, radii):
         Centre of the smallest enclosing ball, m.
     radius : float
         Its radius, m.
+
+    Raises
+    ------
+    ValueError
+        For shapes other than (N, 3) and (N,), non-finite values or negative radii.
     """
-    c = np.asarray(centers, dtype=float).reshape(-1, 3)
-    r = np.asarray(radii, dtype=float).reshape(-1)
+    c, r = np.asarray(centers, dtype=float), np.asarray(radii, dtype=float)
+    if c.ndim != 2 or c.shape[1] != 3 or r.shape != (len(c),) or not len(r):
+        raise ValueError(f"bounding_ball needs centers (N, 3) and radii (N,), N >= 1; got {c.shape} and {r.shape}")
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0)):
+        raise ValueError("bounding_ball needs finite centres and finite radii >= 0")
     origin = 0.5 * ((c - r[:, None]).min(axis=0) + (c + r[:, None]).max(axis=0))
     unit = max(float(np.max(np.linalg.norm(c - origin, axis=1) + r)), np.finfo(float).tiny)
     cu, ru = (c - origin) / unit, r / unit  # the clump in units of its size, about the box centre

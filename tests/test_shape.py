@@ -225,8 +225,12 @@ def test_tangent_dimer_closed_forms():
 
 
 def test_invalid_input_raises_value_error():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="radi"):
         shape_descriptors([[0, 0, 0]], [-1.0])
+    with pytest.raises(ValueError, match="radii >= 0"):
+        bounding_ball([[0, 0, 0]], [-1.0])
+    with pytest.raises(ValueError, match="N, 3"):
+        bounding_ball([0, 0, 0], [1.0])
 
 
 # ------------------------------------------------------------------ extents and bounding sphere by brute force
