@@ -16,12 +16,16 @@ from ._properties import MassProperties, StandardError, concatenate
 from .api import DEFAULT_METHOD, METHODS, mass_properties
 from .methods import Exact, MonteCarlo, Pairwise, Sum, Voxel
 from .pairwise import ClumpGeometryError
+from .shape import ShapeDescriptors, bounding_ball, shape_descriptors
 
 __version__ = "0.1.0"
 
 __all__ = [
     "mass_properties",
     "MassProperties",
+    "shape_descriptors",
+    "ShapeDescriptors",
+    "bounding_ball",
     "StandardError",
     "concatenate",
     "Exact",

@@ -108,26 +108,31 @@ def mass_properties(centers, radii, density=1.0, method=DEFAULT_METHOD, **option
         return finish(V, S, Q, sph.origin, rho, name, sph.batched)
 
 
-def _compiled(centers, radii, rho, name):
+def _compiled(centers, radii, rho, name, with_area=False):
+    """MassProperties from the core; with ``with_area``, (MassProperties, area (M,) in m^2) from one pass."""
     c_given, r_given, starts, N, M, batched = _input.flatten(centers, radii)
     c, r, exponent = _unit_scale(c_given, r_given, starts, N, M)
     mass, vol = np.empty(M), np.empty(M)
     com, inertia = np.empty((M, 3)), np.empty((M, 3, 3))
     w, axes = np.empty((M, 3)), np.empty((M, 3, 3))
+    area = np.empty(M)
     code = _CORE[name]
     for m0 in range(0, M, _BATCH_CHUNK):
-        status = _core.run(code, c, r, starts, N, m0, min(M, m0 + _BATCH_CHUNK), rho, True, True,
-                           mass, vol, com, inertia, w, axes)
+        block = (code, c, r, starts, N, m0, min(M, m0 + _BATCH_CHUNK), rho, True, True, mass, vol, com, inertia, w, axes)
+        status = _core.run_area(*block, area) if with_area else _core.run(*block)
         if status[0]:
             _core_error(status, c_given, r_given, batched, name)
     if exponent is not None:
         mass, vol, com, inertia, w = _scale_back(exponent, mass, vol, com, inertia, w)
+        area = np.ldexp(area, 2 * exponent)
     _check_representable(mass, w, batched)
     for a in (mass, vol, com, inertia, w, axes):
         a.flags.writeable = False
     if not batched:
-        return MassProperties._make(float(mass[0]), float(vol[0]), com[0], inertia[0], w[0], axes[0], name, rho)
-    return MassProperties._make(mass, vol, com, inertia, w, axes, name, rho)
+        mp = MassProperties._make(float(mass[0]), float(vol[0]), com[0], inertia[0], w[0], axes[0], name, rho)
+    else:
+        mp = MassProperties._make(mass, vol, com, inertia, w, axes, name, rho)
+    return (mp, area) if with_area else mp
 
 
 _SCALE_FREE = 2.0**-20, 2.0**20  # clumps with every radius in this band are computed as given

@@ -4,6 +4,7 @@ Usage (see ``docs/cli.md``)::
 
     python -m clumpprops FILE [--method M] [--density RHO] [--format table|csv|json]
                               [--samples N] [--seed S] [--discretization K] [--scale F]
+                              [--shape]
 
 For every clump of FILE (format: :mod:`clumpprops.textclumps`) it prints the number
 of spheres, mass (kg), volume (m^3), centre of mass (m), ascending principal moments
@@ -98,6 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="F",
         help="multiply coordinates and radii by F (as ymport.textClumps(scale=F)), e.g. 0.001 for files in mm",
     )
+    p.add_argument("--shape", action="store_true",
+                   help="add the exact shape descriptors of each union: surface area, volume-equivalent diameter, "
+                   "sphericity, kappa = 4I/(m d_v^2), principal extents, Zingg ratios, bounding sphere (docs/shape.md)")
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     return p
 
@@ -153,7 +157,7 @@ def compute(clumps: Sequence[Clump], method: str, density: float, options: dict)
     return mp, summed
 
 
-def _rows(clumps, mp, summed):
+def _rows(clumps, mp, summed, shape=None):
     for i, c in enumerate(clumps):
         m = float(mp.mass[i])
         row = {
@@ -167,6 +171,8 @@ def _rows(clumps, mp, summed):
         }
         if mp.standard_error is not None:
             row["mass_standard_error"] = float(mp.standard_error.mass[i])
+        if shape is not None:
+            row["shape"] = shape[i].to_dict()
         yield i, row
 
 
@@ -199,11 +205,42 @@ def format_table(clumps, mp, summed, args) -> str:
         if sampled:
             cells.insert(3, f"{r['mass_standard_error']:.2g}")
         rows.append(cells)
-    widths = [max(len(row[k]) for row in rows) for k in range(len(head))]
+    _write_columns(out, rows)
+    if getattr(args, "shape_descriptors", None) is not None:
+        _write_shape_table(out, clumps, args.shape_descriptors)
+    return out.getvalue()
+
+
+def _write_columns(out, rows):
+    widths = [max(len(row[k]) for row in rows) for k in range(len(rows[0]))]
     for j, row in enumerate(rows):
         line = "  ".join(cell.rjust(w) for cell, w in zip(row, widths))
         out.write(("#" + line[1:] if j == 0 and line.startswith(" ") else line) + "\n")
-    return out.getvalue()
+
+
+_SHAPE_HEAD = ["id", "area", "d_v", "sphericity", "kappa_1", "kappa_2", "kappa_3", "elongation", "flatness", "R_bound"]
+
+
+def _write_shape_table(out, clumps, shape):
+    """The shape descriptors as a second table (SI: area m^2, d_v and R_bound m; the rest dimensionless)."""
+    out.write("# shape: area m^2, d_v = (6V/pi)^(1/3) m, sphericity pi^(1/3)(6V)^(2/3)/A, "
+              "kappa_k = 4 I_k/(m d_v^2), Zingg elongation I/L and flatness S/I, bounding-sphere radius m\n")
+    rows = [_SHAPE_HEAD]
+    for i, c in enumerate(clumps):
+        d = shape[i]
+        rows.append([str(c.clump_id)] + [f"{x:.6g}" for x in (d.surface_area, d.diameter, d.sphericity, *d.kappa,
+                                                               d.elongation, d.flatness, d.bounding_radius)])
+    _write_columns(out, rows)
+
+
+def _shape_csv_cells(d):
+    """(header, cells) of one clump's shape descriptors for the csv format."""
+    head = ["surface_area_m2", "d_v_m", "sphericity", "kappa_1", "kappa_2", "kappa_3", "kappa_bounding_1",
+            "kappa_bounding_2", "kappa_bounding_3", "extent_1_m", "extent_2_m", "extent_3_m", "elongation",
+            "flatness", "bounding_x_m", "bounding_y_m", "bounding_z_m", "bounding_radius_m"]
+    values = [d.surface_area, d.diameter, d.sphericity, *d.kappa, *d.kappa_bounding, *d.extents, d.elongation,
+              d.flatness, *d.bounding_center, d.bounding_radius]
+    return head, [repr(float(v)) for v in values]
 
 
 def format_csv(clumps, mp, summed, args) -> str:
@@ -213,20 +250,25 @@ def format_csv(clumps, mp, summed, args) -> str:
     head = ["id", "n_spheres", "mass_kg", "volume_m3", "com_x_m", "com_y_m", "com_z_m", "I1_kgm2", "I2_kgm2", "I3_kgm2", "overlap_percent"]
     if sampled:
         head.append("mass_standard_error_kg")
+    shape = getattr(args, "shape_descriptors", None)
+    if shape is not None:
+        head += _shape_csv_cells(shape[0])[0]
     w.writerow(head)
-    for _, r in _rows(clumps, mp, summed):
+    for i, r in _rows(clumps, mp, summed):
         cells = [r["id"], r["n_spheres"], repr(r["mass"]), repr(r["volume"])]
         cells += [repr(x) for x in r["com"]] + [repr(x) for x in r["principal_moments"]]
         cells.append(repr(r["overlap_percent"]))
         if sampled:
             cells.append(repr(r["mass_standard_error"]))
+        if shape is not None:
+            cells += _shape_csv_cells(shape[i])[1]
         w.writerow(cells)
     return out.getvalue()
 
 
 def format_json(clumps, mp, summed, args) -> str:
     items = []
-    for i, r in _rows(clumps, mp, summed):
+    for i, r in _rows(clumps, mp, summed, getattr(args, "shape_descriptors", None)):
         r["first_line"], r["last_line"] = clumps[i].first_line, clumps[i].last_line
         r["inertia"] = np.asarray(mp.inertia[i]).tolist()
         r["principal_axes"] = np.asarray(mp.principal_axes[i]).tolist()
@@ -245,6 +287,8 @@ def format_json(clumps, mp, summed, args) -> str:
             "inertia": "kg m^2 (about the COM, file axes)",
             "principal_axes": "columns are unit axes, right-handed",
             "overlap_percent": "100*(m_sum/m - 1)",
+            "shape": "--shape: areas m^2, lengths m (extents along the principal axes, from the COM), "
+                     "the rest dimensionless; docs/shape.md",
         },
         "clumps": items,
     }
@@ -288,6 +332,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(f"{PROG}: warning: ... and {len(repeated) - MAX_WARNINGS} more clump ids that appear again", file=sys.stderr)
     try:
         mp, summed = compute(clumps, args.method, args.density, options)
+        args.shape_descriptors = _shape(clumps) if args.shape else None
     except CLIError as exc:
         return _fail(str(exc))
     # no except around the formatting: an exception there is a bug and shows its traceback
@@ -301,6 +346,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         finally:
             return 0
     return 0
+
+
+def _shape(clumps):
+    """The exact shape descriptors of the clumps (a batch); library input errors become CLIError."""
+    from .shape import shape_descriptors
+
+    try:
+        return shape_descriptors([c.centers for c in clumps], [c.radii for c in clumps])
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
 
 
 def _fail(message: str) -> int:

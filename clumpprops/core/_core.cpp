@@ -23,9 +23,10 @@ using iarr = py::array_t<std::int64_t, py::array::c_style>;
 //     principal, mass (M,), volume (M,), com (M,3), inertia (M,3,3), moments (M,3), axes (M,3,3))
 // Computes clumps m0 .. m1-1.  Returns (status, clump, i, j, k, count): status 0 ok; otherwise
 // the first failing clump (its index) and, for a triple overlap, the sphere indices in it.
-static py::tuple run(int method, carr centers, carr radii, py::object starts_obj, std::int64_t n_regular, std::int64_t m0,
-                     std::int64_t m1, double density, bool check, bool principal, carr mass, carr volume, carr com,
-                     carr inertia, carr moments, carr axes) {
+// area: null, or (M,) receiving each clump's surface area (method EXACT; NaN for the others).
+static py::tuple run_block(int method, carr centers, carr radii, py::object starts_obj, std::int64_t n_regular,
+                           std::int64_t m0, std::int64_t m1, double density, bool check, bool principal, carr mass,
+                           carr volume, carr com, carr inertia, carr moments, carr axes, double* area) {
   const double* c = centers.data();
   const double* r = radii.data();
   const std::int64_t S = radii.size();
@@ -82,6 +83,7 @@ static py::tuple run(int method, carr centers, carr radii, py::object starts_obj
       }
       pm[m] = res.mass;
       pv[m] = res.volume;
+      if (area) area[m] = res.area;
       std::memcpy(pc + 3 * m, res.com, 3 * sizeof(double));
       std::memcpy(pi + 9 * m, res.inertia, 9 * sizeof(double));
       if (principal) {
@@ -91,6 +93,23 @@ static py::tuple run(int method, carr centers, carr radii, py::object starts_obj
     }
   }
   return py::make_tuple(status, bad, t.i, t.j, t.k, t.count);
+}
+
+static py::tuple run(int method, carr centers, carr radii, py::object starts_obj, std::int64_t n_regular, std::int64_t m0,
+                     std::int64_t m1, double density, bool check, bool principal, carr mass, carr volume, carr com,
+                     carr inertia, carr moments, carr axes) {
+  return run_block(method, centers, radii, starts_obj, n_regular, m0, m1, density, check, principal, mass, volume, com,
+                   inertia, moments, axes, nullptr);
+}
+
+// run_area(..., the arguments of run, area (M,)): run, plus the surface area of each clump in the
+// same pass (exact method: the exposed solid angle of each sphere, which the volume needs anyway).
+static py::tuple run_area(int method, carr centers, carr radii, py::object starts_obj, std::int64_t n_regular,
+                          std::int64_t m0, std::int64_t m1, double density, bool check, bool principal, carr mass,
+                          carr volume, carr com, carr inertia, carr moments, carr axes, carr area) {
+  if (area.size() != mass.size()) throw std::invalid_argument("area must match the number of clumps");
+  return run_block(method, centers, radii, starts_obj, n_regular, m0, m1, density, check, principal, mass, volume, com,
+                   inertia, moments, axes, area.mutable_data());
 }
 
 // eigh(inertia (M,3,3)) -> moments (M,3), axes (M,3,3): ascending, right-handed (Jacobi)
@@ -345,6 +364,7 @@ static py::tuple state_errors(py::handle row_obj, py::handle target_obj) {
 PYBIND11_MODULE(_core, mod) {
   mod.doc() = "clumpprops' compiled core (clumpprops/core/clumpprops.hpp): exact, pairwise and summed moments";
   mod.def("run", &run);
+  mod.def("run_area", &run_area);
   mod.def("principal", &principal);
   mod.def("adapter_clump", &adapter_clump);
   mod.def("adapter_correction", &adapter_correction);

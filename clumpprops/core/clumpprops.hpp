@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -51,6 +52,7 @@ struct Moments {
   double V = 0.0;
   double S[3] = {0.0, 0.0, 0.0};
   double Q[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  double A = 0.0;  // surface area of the union (exact_moments only): sum of r^2 times exposed solid angle
   void clear() { *this = Moments(); }
 };
 
@@ -1277,9 +1279,13 @@ inline void exact_moments(const double* c, const double* r, int n, Moments& out,
     int K = w.start[i + 1] - w.start[i];
     if (K == 0) {
       add_ball(c + 3 * i, r[i], out);
+      out.A += kFourPi * r[i] * r[i];
       continue;
     }
-    if (exposed_region_moments(caps, K, c + 3 * i, r[i], s, w)) add_from_surface(c + 3 * i, r[i], s, out);
+    if (exposed_region_moments(caps, K, c + 3 * i, r[i], s, w)) {
+      add_from_surface(c + 3 * i, r[i], s, out);
+      out.A += s.a * r[i] * r[i];  // the exposed solid angle is already there: the area costs one product
+    }
   }
 }
 
@@ -1569,6 +1575,7 @@ enum Status : int { kOk = 0, kOverflow = 1, kNonPositiveVolume = 2, kTriple = 3,
 
 struct Result {
   double mass, volume, com[3], inertia[9], moments[3], axes[9];
+  double area;  // surface area of the union (method kExact; NaN for the others)
 };
 
 // moments about the clump origin -> mass properties (docs: _properties.finish)
@@ -1694,6 +1701,7 @@ struct Engine {
 
   Status clump(Method method, const double* c, const double* r, int n, double density, bool principal, Result& res,
                bool check = true) {
+    res.area = std::numeric_limits<double>::quiet_NaN();
     if (n == 2 && method != kExact) return dimer_axisymmetric(method == kPairwise, c, r, density, principal, res);
     rel.resize(3 * static_cast<std::size_t>(n));
     if (n <= 0 || !clump_origin(c, r, n, origin, rel.data())) return kBadInput;
@@ -1722,6 +1730,7 @@ struct Engine {
       }
       axis = e;
     }
+    if (method == kExact) res.area = mom.A;
     return finish(mom, origin, density, principal, res, axis);
   }
 };
