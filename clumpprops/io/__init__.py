@@ -25,7 +25,7 @@ from ._common import Clump, ClumpFileError, compute
 from .readers import FORMATS, detect_format, read
 
 #: The engines :func:`export` writes for, as its ``to`` argument.
-ENGINES = ("liggghts", "lammps", "deme", "mclump", "yade")
+ENGINES = ("liggghts", "lammps", "deme", "mclump", "yade", "vtk", "stl")
 
 __all__ = ["Clump", "ClumpFileError", "ENGINES", "ExportRefused", "FORMATS", "compute", "detect_format", "export",
            "read"]
@@ -59,7 +59,7 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
            source: str = "", scale: float = 1.0, stem: Optional[str] = None, mp=None,
            warn: Optional[Callable[[str], None]] = None, templates: bool = True, force: bool = False,
            deck: bool = False, velocity=(0.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0), steps: int = 1000,
-           dt: Optional[float] = None) -> List:
+           dt: Optional[float] = None, tolerance: float = 1e-3) -> List:
     """Write the files DEM engine `to` reads for `clumps` into `out_dir`.
 
     Parameters
@@ -105,6 +105,8 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
         With `deck`: the number of steps the deck runs (at least 2).
     dt : float or None, optional
         With `deck`: the timestep in s; None for :func:`clumpprops.io.decks.default_dt`.
+    tolerance : float, optional
+        With ``to="stl"``: relative tolerance on the mesh's volume and area (:mod:`clumpprops.mesh`).
 
     Returns
     -------
@@ -131,7 +133,7 @@ def export(clumps: Sequence[Clump], to: str, out_dir=".", density: float = 1000.
     clumps = list(clumps)
     if mp is None:
         mp = compute(clumps, density, method)
-    kw = {"warn": warn} if to == "deme" else {}
+    kw = {"warn": warn} if to == "deme" else {"tolerance": tolerance} if to == "stl" else {}
     if not templates:
         if to not in ("lammps", "deme"):
             raise ValueError(f"templates=False applies to lammps and deme; {to} needs its per-clump files")

@@ -41,6 +41,10 @@ FILES = """files written into --out (STEM = --name, else the clump's name for on
                                       per clump: MClump's folder (principal frame), and the frame
   yade      STEM_textclumps.txt       'x y z r clumpId' lines; exact values in the comments (load
                                       with clumpprops.yade.text_clumps)
+  vtk       NAME.vtu                  per clump: sphere centres with radius/diameter arrays (ParaView
+                                      glyphs), centre of mass, principal axes as lines
+  stl       NAME.stl                  per clump: watertight mesh of the union, volume and area within
+                                      --tolerance of the exact ones
 with --deck (liggghts, lammps, yade), run in --out:
   liggghts  STEM_deck_liggghts.in     liggghts -in STEM_deck_liggghts.in; writes
                                       STEM_liggghts_start.dump and STEM_liggghts_end.dump
@@ -94,6 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dt", type=_positive_float, metavar="DT",
                    help="with --deck: timestep in s (default: a fifth of the smallest sphere's Rayleigh time, "
                    "at most 0.01 rad per step)")
+    p.add_argument("--tolerance", type=_positive_float, default=1e-3, metavar="REL",
+                   help="stl: relative tolerance on the mesh's volume and area (default: 1e-3)")
     p.add_argument("--version", action="version", version=f"clumpprops {__version__}")
     return p
 
@@ -111,7 +117,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         paths = export(clumps, args.to, args.out, args.density, args.method, source=args.file, scale=args.scale,
                        stem=args.name, mp=mp, warn=warnings.append,
                        templates=not args.no_templates, force=args.force, deck=args.deck,
-                       velocity=args.velocity, spin=args.spin, steps=args.steps, dt=args.dt)
+                       velocity=args.velocity, spin=args.spin, steps=args.steps, dt=args.dt,
+                       tolerance=args.tolerance)
     except ClumpGeometryError as exc:
         for c in clumps:  # point at the clump and its lines
             try:
@@ -122,6 +129,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 return _fail(f"{c.source}:{line}: clump {c.name}: {one}" if line else f"{c.source}: clump {c.name}: {one}")
         return _fail(f"{args.file}: {exc}")
     except ClumpFileError as exc:
+        return _fail(str(exc))
+    except ImportError as exc:  # the optional mesh libraries
         return _fail(str(exc))
     except OSError as exc:
         return _fail(f"cannot write to {args.out}: {exc.strerror or exc}")
