@@ -48,6 +48,7 @@ MAX_WARNINGS = 5  # repeated-id warnings printed before a count
 SUBCOMMANDS = {
     "export": ("clumpprops.io.cli", "write the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, "
                "with the exact values"),
+    "show": ("clumpprops.show", "draw a clump with its principal axes into a PNG file"),
 }
 
 
