@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import List, Sequence
 
-from ._common import Clump, Props
+from ._common import Clump
 from ..mesh import DEFAULT_TOLERANCE, union_mesh
 
 ENGINE = "STL (union surface)"
@@ -35,7 +35,7 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     clumps : sequence of Clump
         The clumps, in metres.
     mp : clumpprops.MassProperties
-        Their mass properties (a batch); the exact volume checks the mesh.
+        Their mass properties (unused: the mesh is checked against the exact volume and area).
     out_dir : str or os.PathLike
         The folder the files go to.
     density : float
@@ -59,11 +59,9 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     """
     meshio = _meshio()
     out_dir = Path(out_dir)
-    P = Props(mp)
-    exact = P.volume if method == "exact" else [None] * len(clumps)
     written = []
-    for k, c in enumerate(clumps):
-        m = union_mesh(c.centers, c.radii, tolerance, exact_volume=exact[k])
+    for c in clumps:
+        m = union_mesh(c.centers, c.radii, tolerance)
         path = out_dir / f"{c.name}.stl"
         meshio.write(path, meshio.Mesh(m.vertices, [("triangle", m.faces)]), file_format="stl", binary=True)
         written.append(path)

@@ -12,8 +12,7 @@ written by ``meshio`` (``pip install clumpprops[mesh]``).  Its points are, in or
 ``radius`` and ``diameter`` are 0 on the last 7 points; the point array ``kind`` is 0 for a
 sphere, 1 for the centre of mass, 2 for an axis end.  The cell arrays are ``axis`` (0, 1, 2
 for the axes' lines in ascending order of the principal moment, -1 for the vertex cells) and
-``principal_moment`` (kg m^2; 0 for the vertex cells).  Field data: ``mass`` (kg), ``volume``
-(m^3), ``density`` (kg/m^3), ``center_of_mass`` (m), ``principal_moments`` (kg m^2).
+``principal_moment`` (kg m^2; 0 for the vertex cells).
 """
 from __future__ import annotations
 
@@ -29,23 +28,19 @@ from ..mesh import principal_extents
 ENGINE = "VTK (ParaView)"
 
 
-def clump_mesh(clump: Clump, mass, volume, com, moments, axes, density: float):
+def clump_mesh(clump: Clump, com, moments, axes):
     """The ``meshio.Mesh`` of one clump: spheres, centre of mass and principal axes.
 
     Parameters
     ----------
     clump : Clump
         The clump's spheres, m.
-    mass, volume : float
-        Its mass (kg) and volume (m^3).
     com : array_like, shape (3,)
         Its centre of mass, m.
     moments : array_like, shape (3,)
         Its ascending principal moments, kg m^2.
     axes : array_like, shape (3, 3)
         Its principal axes (columns).
-    density : float
-        The density the mass was computed with, kg/m^3.
 
     Returns
     -------
@@ -63,11 +58,8 @@ def clump_mesh(clump: Clump, mass, volume, com, moments, axes, density: float):
     cells = [("vertex", np.arange(n + 1)[:, None]), ("line", n + 1 + np.arange(6).reshape(3, 2))]
     cell_data = {"axis": [np.full(n + 1, -1), np.arange(3)],
                  "principal_moment": [np.zeros(n + 1), np.asarray(moments, dtype=np.float64)]}
-    field_data = {"mass": np.array([mass], dtype=np.float64), "volume": np.array([volume], dtype=np.float64),
-                  "density": np.array([density], dtype=np.float64), "center_of_mass": com,
-                  "principal_moments": np.asarray(moments, dtype=np.float64)}
     return meshio.Mesh(points, cells, point_data={"radius": radius, "diameter": 2.0 * radius, "kind": kind},
-                       cell_data=cell_data, field_data=field_data)
+                       cell_data=cell_data)
 
 
 def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, source: str = "", scale: float = 1.0,
@@ -83,7 +75,7 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     out_dir : str or os.PathLike
         The folder the files go to.
     density : float
-        Density, kg/m^3, stored as field data.
+        Density, kg/m^3, that `mp` was computed with.
     method : str
         The method `mp` was computed with (not stored).
     source, scale, stem : optional
@@ -105,6 +97,6 @@ def write(clumps: Sequence[Clump], mp, out_dir, density: float, method: str, sou
     written = []
     for k, c in enumerate(clumps):
         path = out_dir / f"{c.name}.vtu"
-        meshio.write(path, clump_mesh(c, P.mass[k], P.volume[k], P.com[k], P.moments[k], P.axes[k], density))
+        meshio.write(path, clump_mesh(c, P.com[k], P.moments[k], P.axes[k]))
         written.append(path)
     return written
