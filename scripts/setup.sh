@@ -12,6 +12,7 @@
 #   make_venv        $VENV: a venv of /usr/bin/python3 that sees Debian's packages and can `import yade`
 #   build_core       the compiled core (C++17 + pybind11), in place
 #   install_package  clumpprops in editable mode into $VENV (console script `clumpprops`)
+#   pip_packages     manifold3d, meshio and trimesh from PyPI (the [mesh] extra: export --to stl/vtk)
 #   report           one line: clumpprops, Python, numpy and the YADE version that was set up
 #
 # VENV (default .venv) is relative to the repository root.  The repository is bind-mounted into
@@ -79,6 +80,19 @@ install_package() {
   fi
 }
 
+# the optional mesh and file libraries (extras [mesh]: export --to stl/vtk; docs/visualise.md), from PyPI.
+# meshio needs rich, which needs markdown-it-py >= 2.2: keep it within the major version Debian
+# ships, so that Debian's myst-parser (the docs) still accepts it.
+PIP_PKGS="manifold3d meshio trimesh"
+
+pip_packages() {
+  "$PY" -c 'import manifold3d, meshio, trimesh' 2>/dev/null && return 0
+  local major
+  major=$("$PY" -c 'import markdown_it; print(int(markdown_it.__version__.split(".")[0]) + 1)' 2>/dev/null || echo 99)
+  log "installing from PyPI: $PIP_PKGS"
+  "$PY" -m pip install -q $PIP_PKGS "markdown-it-py<$major"
+}
+
 report() {
   "$PY" -I -c 'import sys, numpy, clumpprops, yade.config; print("[setup] ok:", sys.argv[1], "| clumpprops", clumpprops.__version__, "from", clumpprops.__file__, "| Python", sys.version.split()[0], "| numpy", numpy.__version__, "| YADE", yade.config.version)' "$VENV" 2>&1 | tail -1
 }
@@ -87,4 +101,5 @@ debian_packages
 make_venv
 build_core
 install_package
+pip_packages
 report
