@@ -1,9 +1,9 @@
 """``clumpprops export FILE --to ENGINE``: clump files with exact values for a DEM engine.
 
-    clumpprops export FILE --to {liggghts,lammps,deme,mclump,yade} [--out DIR]
+    clumpprops export FILE --to {liggghts,lammps,deme,mclump,yade,vtk,stl} [--out DIR]
                       [--density RHO] [--method M] [--scale S] [--from FMT] [--name STEM]
                       [--no-templates] [--force] [--deck [--velocity VX VY VZ] [--spin WX WY WZ]
-                      [--steps N] [--dt DT]]
+                      [--steps N] [--dt DT]] [--tolerance REL]
 
 Prints one line per file written and a short summary per clump on stdout; warnings (DEME
 float32 precision) on stderr.  Errors are one line ``clumpprops: error: FILE:LINE: reason``,
