@@ -48,8 +48,18 @@ mkdir -p "$ROOT/repo" "$ROOT/tmp"
 mount --bind "$REPO" "$ROOT/repo"
 mount --bind /tmp "$ROOT/tmp"
 [ -f /etc/resolv.conf ] && cp -L /etc/resolv.conf "$ROOT/etc/resolv.conf" 2>/dev/null || true
+# pip inside the root reaches PyPI as the host's pip does: the host's certificate bundle (a proxy's
+# own certificate authority may be in it) and its index settings
+PIPENV=()
+CERT="${PIP_CERT:-/etc/ssl/certs/ca-certificates.crt}"
+if [ -f "$CERT" ] && cp -L "$CERT" "$ROOT/etc/ssl/certs/clumpprops-host-ca.crt" 2>/dev/null; then
+  PIPENV+=(PIP_CERT=/etc/ssl/certs/clumpprops-host-ca.crt)
+fi
+for v in PIP_INDEX_URL PIP_EXTRA_INDEX_URL PIP_TRUSTED_HOST PIP_DEFAULT_TIMEOUT; do
+  [ -n "${!v:-}" ] && PIPENV+=("$v=${!v}")
+done
 exec chroot "$ROOT" /usr/bin/env -i HOME=/root PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-  LANG=C.UTF-8 OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}" CLUMPPROPS_ROOT=/repo CLUMPPROPS_IN_DEBIAN13=1 \
+  LANG=C.UTF-8 OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}" CLUMPPROPS_ROOT=/repo CLUMPPROPS_IN_DEBIAN13=1 "${PIPENV[@]}" \
   bash -c 'cd "$0" && exec "$@"' "$WD" "$@"
 EOS
 }

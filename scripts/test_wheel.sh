@@ -45,7 +45,7 @@ for name in "${PYTHONS[@]}"; do
     || { tail -30 "$d/build.log"; log "Python $v: build failed"; status=1; continue; }
   whl=$(ls "$d"/dist/clumpprops-*.whl)
   log "Python $v: built $(basename "$(ls "$d"/dist/clumpprops-*.tar.gz)") and $(basename "$whl")"
-  "$d/venv/bin/python" -m pip install -q "$whl[test]" 2>&1 | quiet
+  "$d/venv/bin/python" -m pip install -q "$whl[test,mesh,plot]" 2>&1 | quiet  # the optional extras too: their tests run
   # the tests and the example files they read, without the package: clumpprops comes from the wheel
   cp -r "$SRC/tests" "$SRC/examples" "$d/run/"
   ( cd "$d/run" && "$d/venv/bin/python" -c 'import clumpprops, sys; f = clumpprops.__file__; print("[test-wheel] clumpprops", clumpprops.__version__, "from", f); sys.exit("/venv/" not in f)' ) \
