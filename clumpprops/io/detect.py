@@ -84,8 +84,10 @@ def sniff_format(path, n_lines=50) -> Optional[str]:
             return "lammps"
         words_seen.append(s)
     data = [s for s in words_seen if s[:1] in "+-.0123456789"]
+    if any(_TEMPLATE.match(s) for s in words_seen) or (not data and _has_template(path)):
+        return "liggghts-script"
     if not data:
-        return "liggghts-script" if _has_template(path) else None
+        return None
     first = data[0]
     if "," in first:
         return "csv"
