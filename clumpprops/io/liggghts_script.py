@@ -19,7 +19,9 @@ from ._common import Clump, ClumpFileError
 from .detect import _TEMPLATE
 from .readers import _make, _number, _read_lines, read_liggghts
 
+
 __all__ = ["read_liggghts_script"]
+
 
 def _commands(text):
     """(first line, [(word, line)]) of each command, continuation lines (``&``) joined, comments cut."""
@@ -38,6 +40,7 @@ def _commands(text):
             words, first = [], None
     if words:
         yield first, words
+
 
 def read_liggghts_script(path, scale: float = 1.0) -> List[Clump]:
     """Every ``particletemplate/multisphere`` clump of a LIGGGHTS input script.
@@ -70,11 +73,13 @@ def read_liggghts_script(path, scale: float = 1.0) -> List[Clump]:
         raise ClumpFileError("no 'fix ... particletemplate/multisphere' command", src, max(1, len(text)))
     return out
 
+
 def _keyword(words, key, src, first):
     for k, (w, _) in enumerate(words):
         if w == key:
             return k
     raise ClumpFileError(f"particletemplate/multisphere without '{key}'", src, first)
+
 
 def _template(words, first, path: Path, scale: float) -> Clump:
     src, fix_id = str(path), words[1][0]
@@ -95,6 +100,7 @@ def _template(words, first, path: Path, scale: float) -> Clump:
     own = _scale(words, k + 4 * n, src)
     return _make(rows, [values[4 * i][1] for i in range(n)], fix_id, src, scale * own)
 
+
 def _file_template(words, k, n, fix_id, path: Path, scale: float) -> Clump:
     src = str(path)
     if k + 1 >= len(words):
@@ -108,6 +114,7 @@ def _file_template(words, k, n, fix_id, path: Path, scale: float) -> Clump:
         raise ClumpFileError(f"sphere file {name!r} has {c.n_spheres} spheres, nspheres is {n}", src, line)
     return Clump(c.centers[:n], c.radii[:n], fix_id, c.source, c.lines[:n])
 
+
 def _scale(words, k, src) -> float:
     """The template's ``scale S`` right at word ``k``, else 1."""
     if k < len(words) and words[k][0] == "scale":
@@ -118,6 +125,7 @@ def _scale(words, k, src) -> float:
             raise ClumpFileError(f"scale must be > 0, got {words[k + 1][0]!r}", src, words[k + 1][1])
         return s
     return 1.0
+
 
 def _count(word_line, src) -> int:
     w, line = word_line
