@@ -21,9 +21,10 @@ _profiles.load()
 LIBRARY = {
     "test_adversarial.py", "test_baselines.py", "test_batching.py", "test_cli.py", "test_core.py", "test_core_dense.py", "test_core_header.py",
     "test_exact.py", "test_exact_degenerate.py", "test_exact_reference.py", "test_export_safety.py", "test_fuzz_exact.py",
-    "test_invariance.py", "test_io.py", "test_io_fast.py", "test_io_formats.py", "test_packaging.py", "test_pairwise_physics.py", "test_pairwise_refusal.py",
+    "test_invariance.py", "test_io.py", "test_io_fast.py", "test_packaging.py", "test_pairwise_physics.py", "test_pairwise_refusal.py",
     "test_shape.py", "test_shape_cli.py", "test_validation.py",
     "test_value_object.py",
+    "test_io_formats.py",
 }
 
 
