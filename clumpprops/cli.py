@@ -1,12 +1,16 @@
-"""Command-line tool: mass properties of the clumps in a YADE ``textClumps`` file.
+"""Command-line tool: mass properties of the sphere clumps in a file of any format :func:`clumpprops.io.read` reads.
 
 Usage (see ``docs/cli.md``)::
 
     python -m clumpprops FILE [--method M] [--density RHO] [--format table|csv|json]
                               [--samples N] [--seed S] [--discretization K] [--scale F]
-                              [--shape]
+                              [--shape] [--from FMT] [--diameter D]
 
-For every clump of FILE (format: :mod:`clumpprops.textclumps`) it prints the number
+FILE's format is detected from its content (:mod:`clumpprops.io.detect`: YADE textClumps,
+CLUMP/MClump ``x,y,z,r`` tables, LIGGGHTS sphere files and input scripts, LAMMPS molecule
+files, the DEME JSON and MClump folders ``clumpprops export`` writes), or named with
+``--from FMT``; ``-`` reads textClumps (:mod:`clumpprops.textclumps`) from standard input.
+For every clump of FILE it prints the number
 of spheres, mass (kg), volume (m^3), centre of mass (m), ascending principal moments
 of inertia (kg m^2) and the overlap correction: how much the summed-sphere mass
 (YADE's default clump, LAMMPS ``fix rigid``) overestimates the method's mass, in %,
@@ -36,6 +40,7 @@ import numpy as np
 from . import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__, mass_properties
 from ._argtypes import _int, _positive_float, _positive_int
 from ._clumps import Clump, ClumpFileError
+from .io.detect import FORMATS
 from .textclumps import read_text_clumps
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, YADE's default material density
@@ -61,7 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description=textwrap.fill(
             "Mass, volume, centre of mass and principal moments of inertia of the sphere clumps "
-            "in a YADE textClumps file (lines 'x y z r clumpId', '#' comments). SI units: "
+            "in a clump file: YADE textClumps (lines 'x y z r clumpId', '#' comments), CLUMP/MClump "
+            "'x,y,z,r' tables, LIGGGHTS sphere files and input scripts, LAMMPS molecule files, "
+            "the DEME and MClump files 'clumpprops export' writes; the format is detected from "
+            "the content (--from names it). SI units: "
             "lengths in m, density in kg/m^3, mass in kg, inertia in kg m^2."
         ),
         epilog=textwrap.fill(
@@ -73,7 +81,13 @@ def build_parser() -> argparse.ArgumentParser:
             for name, (_, text) in SUBCOMMANDS.items()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("file", metavar="FILE", help="textClumps file, or '-' for standard input")
+    p.add_argument("file", metavar="FILE", help="clump file (any format of --from), or '-' for a textClumps "
+                   "file on standard input")
+    p.add_argument("--from", dest="fmt", choices=FORMATS, metavar="FMT",
+                   help=f"input format, one of {', '.join(FORMATS)} (default: detected from the content)")
+    p.add_argument("--diameter", type=_positive_float, metavar="D",
+                   help="LAMMPS molecule file without a Diameters section: every atom's diameter, in the "
+                   "file's length units")
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -123,10 +137,16 @@ def _method_options(args, parser) -> dict:
     return opts
 
 
+def _label(clump: Clump):
+    """The clump's id in the output: textClumps' clumpId, else the clump's name."""
+    return clump.clump_id if clump.clump_id is not None else clump.name
+
+
 def _describe(clump: Clump) -> str:
     lo, hi = clump.first_line, clump.last_line
     where = f"line {lo}" if lo == hi else f"lines {lo}-{hi}"
-    return f"clump id {clump.clump_id} ({where})"
+    what = f"clump id {clump.clump_id}" if clump.clump_id is not None else f"clump {clump.name}"
+    return f"{what} ({where})"
 
 
 def compute(clumps: Sequence[Clump], method: str, density: float, options: dict):
@@ -162,7 +182,7 @@ def _rows(clumps, mp, summed, shape=None):
     for i, c in enumerate(clumps):
         m = float(mp.mass[i])
         row = {
-            "id": c.clump_id,
+            "id": _label(c),
             "n_spheres": c.n_spheres,
             "mass": m,
             "volume": float(mp.volume[i]),
@@ -229,7 +249,7 @@ def _write_shape_table(out, clumps, shape):
     rows = [_SHAPE_HEAD]
     for i, c in enumerate(clumps):
         d = shape[i]
-        rows.append([str(c.clump_id)] + [f"{x:.6g}" for x in (d.surface_area, d.diameter, d.sphericity, *d.kappa,
+        rows.append([str(_label(c))] + [f"{x:.6g}" for x in (d.surface_area, d.diameter, d.sphericity, *d.kappa,
                                                                d.elongation, d.flatness, d.bounding_radius)])
     _write_columns(out, rows)
 
@@ -316,12 +336,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser.parse_args(argv)
     options = _method_options(args, parser)
     try:
-        clumps = read_text_clumps(args.file, scale=args.scale)
-    except ClumpFileError as exc:  # malformed file: names the line
+        clumps = read_clumps(args.file, args.fmt, args.scale, args.diameter)
+    except CLIError as exc:
         return _fail(str(exc))
     except OSError as exc:
         return _fail(f"cannot read {args.file}: {exc.strerror or exc}")
-    repeated = np.flatnonzero(clumps.repeated)
+    repeated = np.flatnonzero([c.repeated_id for c in clumps] if isinstance(clumps, list) else clumps.repeated)
     for k in repeated[:MAX_WARNINGS]:
         c = clumps[int(k)]
         print(
@@ -347,6 +367,63 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         finally:
             return 0
     return 0
+
+
+def _input_format(path: str, fmt: Optional[str]) -> str:
+    """The format FILE is read as: ``--from``, else detected; textClumps for '-' and where nothing is detected."""
+    if path == "-":
+        if fmt not in (None, "yade"):
+            raise CLIError(f"standard input ('-') is read as textClumps only, not as --from {fmt}")
+        return "yade"
+    if fmt is not None:
+        return fmt
+    from .io import detect_format
+
+    try:
+        return detect_format(path)
+    except ClumpFileError:  # no format shown: textClumps, whose reader names what is wrong
+        return "yade"
+
+
+def read_clumps(path: str, fmt: Optional[str] = None, scale: float = 1.0, diameter: Optional[float] = None):
+    """The clumps of FILE as the main command reads them.
+
+    Parameters
+    ----------
+    path : str
+        The file, or '-' for a textClumps file on standard input.
+    fmt : str or None, optional
+        One of :data:`clumpprops.io.FORMATS`; None to detect it from the content.
+    scale : float, optional
+        Factor on coordinates and radii.
+    diameter : float or None, optional
+        Every atom's diameter for a LAMMPS molecule file without ``Diameters``.
+
+    Returns
+    -------
+    clumpprops.textclumps.TextClumps or list of Clump
+        The parsed textClumps file, or the clumps :func:`clumpprops.io.read` returns.
+
+    Raises
+    ------
+    CLIError
+        One line ``FILE:LINE: as FORMAT: reason`` for a file the format's reader refuses, or
+        for ``--diameter`` with a format other than ``lammps``.
+    OSError
+        If a textClumps file cannot be read.
+    """
+    fmt = _input_format(path, fmt)
+    if diameter is not None and fmt != "lammps":
+        raise CLIError(f"{path}: as {fmt}: --diameter applies only to LAMMPS molecule files (--from lammps)")
+    try:
+        if fmt == "yade":
+            return read_text_clumps(path, scale=scale)
+        from .io import read
+
+        return read(path, fmt, scale=scale, diameter=diameter)
+    except ClumpFileError as exc:  # names the file, the line and the format tried
+        where = f"{exc.source}:{exc.lineno}: " if exc.lineno is not None else f"{exc.source}: "
+        raise CLIError(f"{where}as {fmt}: {exc.reason}") from None
 
 
 def _shape(clumps):

@@ -24,6 +24,7 @@ LIBRARY = {
     "test_invariance.py", "test_io.py", "test_io_fast.py", "test_mesh.py", "test_packaging.py", "test_pairwise_physics.py", "test_pairwise_refusal.py",
     "test_shape.py", "test_shape_cli.py", "test_show.py", "test_validation.py",
     "test_value_object.py",
+    "test_io_formats.py",
 }
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from clumpprops.io import ClumpFileError, read
+from clumpprops.io import molecule as M
 from clumpprops.io import readers as R
 from clumpprops._numtext import fast_table, strict_float, strict_int
 from clumpprops.textclumps import parse_text_clumps, read_text_clumps
@@ -171,7 +172,7 @@ def test_fast_path_equals_line_by_line_validator(tmp_path, fmt, monkeypatch):
     (fast,) = read(path, fmt=fmt)
     slow_name = {"csv": "_csv_rows", "liggghts": "_liggghts_rows", "mclump": "_mclump_rows", "lammps": "_mol_rows"}[fmt]
     monkeypatch.setattr(R, "_fast_spheres", lambda *a, **k: None)
-    monkeypatch.setattr(R, "_mol_fast", lambda *a, **k: None)
+    monkeypatch.setattr(M, "_mol_fast", lambda *a, **k: None)
     (slow,) = read(path, fmt=fmt)
     assert np.array_equal(fast.centers, slow.centers) and np.array_equal(fast.radii, slow.radii)
     assert fast.lines == slow.lines
@@ -182,7 +183,7 @@ def test_fast_path_equals_line_by_line_validator(tmp_path, fmt, monkeypatch):
     else:
         assert np.array_equal(fast.centers, a[:, :3]) and np.array_equal(fast.radii, a[:, 3])
     monkeypatch.undo()
-    monkeypatch.setattr(R, slow_name, lambda *a, **k: pytest.fail("the fast path was not taken"))
+    monkeypatch.setattr(M if fmt == "lammps" else R, slow_name, lambda *a, **k: pytest.fail("the fast path was not taken"))
     read(path, fmt=fmt)
 
 

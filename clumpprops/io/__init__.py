@@ -1,6 +1,21 @@
 """Exporters and importers: exact sphere clumps for DEM engines (LIGGGHTS, LAMMPS, DEME, MercuryDPM, YADE).
 
-:func:`read` takes the format from the file's name or content (or ``fmt="csv"``, ...);
+:func:`read` detects the format from the file's content (:func:`detect_format`; the name
+decides only where the content shows none), or takes it as ``fmt="csv"``, ...:
+
+===================  =====================================================  ===========================================
+format               file                                                   detected from
+===================  =====================================================  ===========================================
+``csv``              ``x,y,z,r`` table (CLUMP, MClump; any name)             a data line with commas
+``liggghts``         ``x y z r`` sphere list (any name but ``.txt``)          four whitespace-separated numbers
+``yade``             textClumps ``x y z r clumpId``                          five columns, the fifth an integer
+``lammps``           molecule file (``diameter=`` without ``Diameters``)     an ``N atoms`` line or a ``Coords`` section
+``liggghts-script``  input script, one clump per template fix                a ``particletemplate/multisphere`` command
+``deme``             the exported ``*_deme.json`` (source frame)             a JSON object
+``mclump``           ``Clump.txt``, its folder, the exported                 a folder, ``Clump.txt``, that file's
+                     ``clumpprops.txt`` (source frame)                       first line
+===================  =====================================================  ===========================================
+
 :func:`export` writes the files one engine reads, values in SI units:
 
 >>> from clumpprops import io as cio

@@ -1,16 +1,19 @@
 """Importers: sphere clumps from the files DEM engines and clump tools use.
 
-==========  =====================================================  ==========================
-format      file                                                    detected from
-==========  =====================================================  ==========================
-``csv``     ``x,y,z,r`` per line, optional header row (one clump)   ``.csv``
-``liggghts``  LIGGGHTS sphere file ``x y z r`` (``#`` comments;       ``.multisphere``, ``.ms``,
-            an optional 5th column, the atom type, is ignored)       ``.spheres``
-``mclump``  MercuryDPM MClump ``Clump.txt`` (``x,y,z,r``), or the   a file named ``Clump.txt``,
-            clump folder holding ``Clump/Clump.txt``                 a directory
-``yade``    YADE ``ymport.textClumps`` (``x y z r clumpId``)         ``.txt`` (other names)
-``lammps``  LAMMPS molecule file with ``Coords`` and ``Diameters``   ``.mol``, ``.molecule``
-==========  =====================================================  ==========================
+:func:`read` detects the format by content (:mod:`clumpprops.io.detect`, whose table lists
+what each format looks like), or takes it as ``fmt``:
+
+=====================  ==========================================================
+format                 reader
+=====================  ==========================================================
+``csv``                :func:`read_csv`: ``x,y,z,r`` lines, optional header row
+``liggghts``           :func:`read_liggghts`: ``x y z r [type]`` lines
+``mclump``             :func:`read_mclump`: ``Clump.txt``, the clump folder, ``clumpprops.txt``
+``yade``               :func:`read_yade`: textClumps ``x y z r clumpId``
+``lammps``             :func:`clumpprops.io.molecule.read_lammps`: molecule file
+``liggghts-script``    :func:`clumpprops.io.liggghts_script.read_liggghts_script`
+``deme``               :func:`clumpprops.io.readback.read_deme`: ``*_deme.json``
+=====================  ==========================================================
 
 Every reader checks each number (a word that is not a number, NaN/inf, a radius <= 0,
 the wrong number of columns) and raises :class:`ClumpFileError` naming the file and
@@ -33,114 +36,18 @@ import contextlib
 import gc
 import math
 import os
-import re
 from pathlib import Path
 from typing import List, Optional
 
 import numpy as np
 
 from ._common import Clump, ClumpFileError
+from .detect import FORMATS, detect_format, sniff_format
 from .._numtext import data_line_indices, fast_table, float_columns, is_float, strict_float, strict_int, strip_bom
 
-__all__ = ["FORMATS", "detect_format", "read"]
+__all__ = ["FORMATS", "detect_format", "read", "sniff_format"]
 
-#: The formats :func:`read` reads, as its ``fmt`` argument.
-FORMATS = ("csv", "liggghts", "mclump", "yade", "lammps")
-_EXT = {
-    ".csv": "csv",
-    ".multisphere": "liggghts",
-    ".ms": "liggghts",
-    ".spheres": "liggghts",
-    ".txt": "yade",
-    ".mol": "lammps",
-    ".molecule": "lammps",
-}
 _NAMES = ("x", "y", "z", "r")
-
-
-def sniff_format(path, n_lines=50) -> Optional[str]:
-    """The format the first data lines of ``path`` show, or None where they show none:
-    ``lammps`` for a molecule file (an ``N atoms`` header line or a ``Coords`` section), ``csv``
-    for comma-separated numbers (CLUMP's and MClump's tables), ``yade`` for five whitespace-separated
-    columns whose fifth is an integer (textClumps' clump id), ``liggghts`` for four (``x y z r``)."""
-    try:
-        with open(path, "r", encoding="utf-8", errors="replace") as f:
-            head = [line for _, line in zip(range(n_lines), f)]
-    except OSError:
-        return None
-    words_seen = []
-    for line in strip_bom(head):
-        s = line.split("#", 1)[0].strip()
-        if not s:
-            continue
-        if re.fullmatch(r"\d+\s+atoms", s) or s == "Coords":
-            return "lammps"
-        words_seen.append(s)
-    data = [s for s in words_seen if s[:1] in "+-.0123456789"]
-    if not data:
-        return None
-    first = data[0]
-    if "," in first:
-        return "csv"
-    cols = first.split()
-    if len(cols) == 5 and re.fullmatch(r"[+-]?\d+", cols[4]):
-        return "yade"
-    if len(cols) == 4:
-        return "liggghts"
-    return None
-
-
-def detect_format(path) -> str:
-    """The format of a clump file, from its content or its name.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file, or an MClump clump folder.
-
-    Returns
-    -------
-    str
-        One of :data:`FORMATS`.
-
-    Raises
-    ------
-    ClumpFileError
-        If neither the content nor the name shows a format.
-
-    Notes
-    -----
-    The content decides where it shows a format (a CLUMP comma table named ``.txt``, a LAMMPS
-    molecule file named ``molecule.data``); else the name does, as in this table:
-
-    ============  ===================================================
-    format        detected from
-    ============  ===================================================
-    ``csv``       ``.csv``
-    ``liggghts``  ``.multisphere``, ``.ms``, ``.spheres``
-    ``mclump``    a file named ``Clump.txt``, a directory
-    ``yade``      ``.txt`` (other names)
-    ``lammps``    ``.mol``, ``.molecule``
-    ============  ===================================================
-
-    A five-column file named like a LIGGGHTS sphere file stays ``liggghts`` (its fifth column
-    is the atom type).
-    """
-    p = Path(path)
-    if p.is_dir() or p.name == "Clump.txt":
-        return "mclump"
-    by_name = _EXT.get(p.suffix.lower())
-    by_content = sniff_format(p) if p.is_file() else None
-    if by_content == "yade" and by_name == "liggghts":
-        return by_name
-    fmt = by_content or by_name
-    if fmt is None:
-        raise ClumpFileError(
-            f"unknown format (extension {p.suffix or 'none'!r}, and its first lines show none); name it "
-            f"{', '.join(sorted(_EXT))} or pass --from {{{','.join(FORMATS)}}}",
-            str(path),
-        )
-    return fmt
 
 
 def _stem(path) -> str:
@@ -246,9 +153,12 @@ def _is_name(w: str) -> bool:
 
 
 def read_liggghts(path, scale: float = 1.0) -> List[Clump]:
-    """One clump from a LIGGGHTS ``particletemplate/multisphere`` sphere file ``x y z r [type]``."""
+    """One clump from a LIGGGHTS ``particletemplate/multisphere`` sphere file ``x y z r [type]``
+    (any name, e.g. ``stone1.test``); a first line ``x y z r`` of column names is skipped."""
     src, text = str(path), _read_lines(path)
     keep = data_line_indices(text)
+    if keep and _is_header(text[keep[0]]):
+        keep = keep[1:]
     fast = None
     if keep:
         five = len(text[keep[0]].split("#", 1)[0].split()) == 5
@@ -257,13 +167,23 @@ def read_liggghts(path, scale: float = 1.0) -> List[Clump]:
     return [_make(rows, lines, _stem(path), src, scale, len(text))]
 
 
+def _is_header(line: str) -> bool:
+    """True for a line of column names ``x y z r`` (whitespace-separated, any case)."""
+    return [w.lower() for w in line.split("#", 1)[0].split()] == list(_NAMES)
+
+
 def _liggghts_rows(text, src):
     """The line-by-line LIGGGHTS validator: rows and line numbers, or the first error with its line."""
     rows, lines = [], []
+    first = True
     for lineno, line in enumerate(text, 1):
         words = line.split("#", 1)[0].split()
         if not words:
             continue
+        if first:
+            first = False
+            if _is_header(line):
+                continue
         if len(words) not in (4, 5):
             raise ClumpFileError(f"expected 4 columns 'x y z r' (or 5 with an atom type), got {len(words)}: {line.strip()!r}", src, lineno)
         if len(words) == 5:
@@ -277,8 +197,18 @@ def _liggghts_rows(text, src):
 
 
 def read_mclump(path, scale: float = 1.0) -> List[Clump]:
-    """One clump from MClump's ``Clump.txt`` (``x,y,z,r`` per line), given the file or its clump folder."""
-    p = Path(path)
+    """One clump from MClump's ``Clump.txt`` (``x,y,z,r`` per line), given the file or its clump folder.
+
+    The folder and ``Clump.txt`` give the spheres as written (MClump's principal frame, what
+    MercuryDPM loads); the ``clumpprops.txt`` of a folder that ``clumpprops export --to mclump``
+    writes gives them back in the source frame it records (:mod:`clumpprops.io.readback`).
+    """
+    from .readback import mclump_frame, source_frame
+
+    p, frame = Path(path), None
+    if p.name == "clumpprops.txt" and p.is_file():
+        frame = mclump_frame(p)
+        p = path = p.parent
     if p.is_dir():
         cand = [p / "Clump" / "Clump.txt", p / "Clump.txt"]
         found = [c for c in cand if c.is_file()]
@@ -288,7 +218,9 @@ def read_mclump(path, scale: float = 1.0) -> List[Clump]:
     src, text = str(p), _read_lines(p)
     fast = _fast_spheres(text, data_line_indices(text, comment=None), delimiter=",")
     rows, lines = fast if fast is not None else _mclump_rows(text, src)
-    return [_make(rows, lines, _stem(path), src, scale, len(text))]
+    c = _make(rows, lines, _stem(path), src, 1.0, len(text))
+    centers = c.centers if frame is None else source_frame(c.centers, *frame)
+    return [Clump(centers * scale, c.radii * scale, c.name, c.source, c.lines)]
 
 
 def _mclump_rows(text, src):
@@ -350,141 +282,21 @@ def _gc_paused():
             gc.enable()
 
 
-_MOL_SECTIONS = ("Coords", "Types", "Molecules", "Fragments", "Charges", "Diameters", "Masses", "Bonds", "Angles",
-                 "Dihedrals", "Impropers", "Special Bond Counts", "Special Bonds", "Shake Flags", "Shake Atoms",
-                 "Shake Bond Types")
-# the sections read and checked: their columns after the atom id
-_MOL_VALUES = {"Coords": ("x", "y", "z"), "Diameters": ("diameter",), "Masses": ("mass",)}
-_MOL_SHAPE = {"Coords": "'id x y z'", "Diameters": "'id diameter'", "Masses": "'id mass'"}
+def _reader(fmt: str):
+    """The reader function of a format (the modules of the other formats import this one)."""
+    if fmt == "lammps":
+        from .molecule import read_lammps
+        return read_lammps
+    if fmt == "liggghts-script":
+        from .liggghts_script import read_liggghts_script
+        return read_liggghts_script
+    if fmt == "deme":
+        from .readback import read_deme
+        return read_deme
+    return {"csv": read_csv, "liggghts": read_liggghts, "mclump": read_mclump, "yade": read_yade}[fmt]
 
 
-def read_lammps(path, scale: float = 1.0) -> List[Clump]:
-    """One clump from a LAMMPS molecule file: ``N atoms`` header, ``Coords`` and ``Diameters``
-    sections (radius = diameter / 2).  ``Masses`` entries are checked (a number > 0 per atom)
-    but not used; other headers and sections are skipped."""
-    src, text = str(path), _read_lines(path)
-    sections = _mol_sections(text)
-    natoms = _mol_natoms(text, sections[0][1] if sections else len(text), src)
-    fast = _mol_fast(text, sections, natoms)
-    rows, lines = fast if fast is not None else _mol_rows(text, sections, natoms, src)
-    return [_make(rows, lines, _stem(path), src, scale)]
-
-
-def _mol_sections(text):
-    """[(name, index of its keyword line, index of the next section's line or the end)] in file order."""
-    found = []
-    for i in range(1, len(text)):  # line 1 is the title
-        line = text[i]
-        if line.lstrip()[:1].isalpha():
-            joined = " ".join(line.split("#", 1)[0].split())
-            if joined in _MOL_SECTIONS:
-                found.append((joined, i))
-    ends = [i for _, i in found[1:]] + [len(text)]
-    return [(name, i, end) for (name, i), end in zip(found, ends)]
-
-
-def _mol_natoms(text, end, src) -> Optional[int]:
-    """The ``N atoms`` header value (lines 2 .. the first section), None if absent."""
-    natoms = None
-    for lineno in range(2, end + 1):
-        words = text[lineno - 1].split("#", 1)[0].split()
-        if len(words) == 2 and words[1] == "atoms":
-            try:
-                natoms = strict_int(words[0])
-            except ValueError:
-                raise ClumpFileError(f"number of atoms must be an integer, got {words[0]!r}", src, lineno) from None
-    return natoms
-
-
-def _mol_fast(text, sections, natoms):
-    """(rows, lines) from the Coords, Diameters and Masses sections parsed at once by numpy, or None
-    if anything needs the line-by-line validator (which words the error with its line)."""
-    tables = {}
-    for name, start, end in sections:
-        if name in _MOL_VALUES:
-            if name in tables:
-                return None
-            keep = [start + 1 + i for i in data_line_indices(text[start + 1:end])]
-            dtype = np.dtype([("id", "i8")] + [(c, "f8") for c in _MOL_VALUES[name]])
-            rows = fast_table([text[i] for i in keep], dtype, comments="#")
-            if rows is None or len(np.unique(rows["id"])) != len(rows):
-                return None
-            values = float_columns(rows, _MOL_VALUES[name])
-            if not np.isfinite(values).all() or (name != "Coords" and not (values > 0).all()):
-                return None
-            order = np.argsort(rows["id"])
-            tables[name] = (rows["id"][order], values[order], np.asarray(keep, dtype=np.int64)[order] + 1)
-    if "Coords" not in tables or "Diameters" not in tables:
-        return None
-    ids, xyz, lines = tables["Coords"]
-    if (natoms is not None and natoms != len(ids)) or len(ids) == 0:
-        return None
-    for name in ("Diameters", "Masses"):
-        if name in tables and not np.array_equal(tables[name][0], ids):
-            return None
-    return np.column_stack([xyz, tables["Diameters"][1][:, 0] / 2.0]), lines
-
-
-def _mol_rows(text, sections, natoms, src):
-    """The line-by-line molecule-file validator: rows and line numbers, or the first error with its line."""
-    entries = {}  # section -> {atom id: (values, line)}
-    for name, start, end in sections:
-        if name not in _MOL_VALUES:
-            continue
-        table = entries.setdefault(name, {})
-        for lineno in range(start + 2, end + 1):
-            raw = text[lineno - 1]
-            words = raw.split("#", 1)[0].split()
-            if not words:
-                continue
-            if len(words) != 1 + len(_MOL_VALUES[name]):
-                raise ClumpFileError(f"{name} line must be {_MOL_SHAPE[name]}, got {len(words)} columns: {raw.strip()!r}",
-                                     src, lineno)
-            aid = _atom_id(words[0], src, lineno)
-            if aid in table:
-                raise ClumpFileError(f"atom id {aid} appears twice in {name} (first on line {table[aid][1]})", src, lineno)
-            values = [_number(w, what, src, lineno) for what, w in zip(_MOL_VALUES[name], words[1:])]
-            if name != "Coords" and values[0] <= 0:
-                raise ClumpFileError(f"{_MOL_VALUES[name][0]} must be > 0, got {words[1]!r}", src, lineno)
-            table[aid] = (values, lineno)
-    return _mol_match(entries, natoms, src, len(text))
-
-
-def _mol_match(entries, natoms, src, nlines):
-    """Rows (x, y, z, r) in atom-id order once every atom has its Coords and Diameters entries."""
-    coords, diams = entries.get("Coords", {}), entries.get("Diameters", {})
-    if not coords:
-        raise ClumpFileError("end of file and no spheres found (no Coords section; empty clump)", src, max(1, nlines))
-    if not diams:
-        raise ClumpFileError("end of file and no Diameters section: the sphere radii are unknown", src, max(1, nlines))
-    if natoms is not None and natoms != len(coords):
-        raise ClumpFileError(f"header says {natoms} atoms, Coords has {len(coords)}", src)
-    for name in ("Diameters", "Masses"):
-        for aid, (_, lineno) in entries.get(name, {}).items():
-            if aid not in coords:
-                raise ClumpFileError(f"atom {aid} of the {name} section is not in Coords", src, lineno)
-    rows, lines = [], []
-    for aid in sorted(coords):
-        if aid not in diams:
-            raise ClumpFileError(f"atom {aid} has no diameter in the Diameters section", src, coords[aid][1])
-        if "Masses" in entries and aid not in entries["Masses"]:
-            raise ClumpFileError(f"atom {aid} has no mass in the Masses section", src, coords[aid][1])
-        rows.append(coords[aid][0] + [diams[aid][0][0] / 2.0])
-        lines.append(coords[aid][1])
-    return rows, lines
-
-
-def _atom_id(w, src, lineno) -> int:
-    try:
-        return strict_int(w)
-    except ValueError:
-        raise ClumpFileError(f"atom id must be an integer, got {w!r}", src, lineno) from None
-
-
-_READERS = {"csv": read_csv, "liggghts": read_liggghts, "mclump": read_mclump, "yade": read_yade, "lammps": read_lammps}
-
-
-def read(path, fmt: Optional[str] = None, scale: float = 1.0) -> List[Clump]:
+def read(path, fmt: Optional[str] = None, scale: float = 1.0, diameter: Optional[float] = None) -> List[Clump]:
     """Read the clumps of a file.
 
     Parameters
@@ -492,20 +304,25 @@ def read(path, fmt: Optional[str] = None, scale: float = 1.0) -> List[Clump]:
     path : str or os.PathLike
         The file (or, for ``mclump``, the clump folder).
     fmt : str or None, optional
-        One of :data:`FORMATS`; None to detect it with :func:`detect_format`.
+        One of :data:`FORMATS`; None to detect it from the content with :func:`detect_format`.
     scale : float, optional
         Factor on every coordinate and radius, to make them metres (0.001 for a file in mm).
+    diameter : float or None, optional
+        ``lammps`` only: the diameter of every atom of a molecule file without a ``Diameters``
+        section, in the file's length units (`scale` applies to it too).
 
     Returns
     -------
     list of Clump
-        The clumps in file order, centres and radii in m; one clump for every format but
-        ``yade`` (textClumps), which holds any number.
+        The clumps in file order, centres and radii in m; one clump for the single-clump
+        formats, any number for ``yade`` (textClumps), ``liggghts-script`` (one per template
+        fix) and ``deme`` (one per entry).
 
     Raises
     ------
     ValueError
-        If `scale` is not a positive finite number.
+        If `scale` is not a positive finite number, or `diameter` is given for a format other
+        than ``lammps``.
     ClumpFileError
         If `fmt` is unknown or cannot be detected, the file is missing, or a line of it is
         bad (a word that is not a number, NaN or inf, a radius <= 0, the wrong number of
@@ -516,14 +333,20 @@ def read(path, fmt: Optional[str] = None, scale: float = 1.0) -> List[Clump]:
     Numbers are ASCII only; a UTF-8 byte order mark at the start of the file is skipped.
     In a LAMMPS molecule file each atom id appears once per section, and every
     ``Diameters`` and ``Masses`` entry is a number > 0 for an atom of ``Coords``.
+    DEME JSON and MClump folders written by ``clumpprops export`` are read back in the
+    source frame (:mod:`clumpprops.io.readback`).
     """
     scale = float(scale)
     if not math.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be a positive finite number, got {scale!r}")
     if fmt is None:
         fmt = detect_format(path)
-    elif fmt not in _READERS:
+    elif fmt not in FORMATS:
         raise ClumpFileError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}", str(path))
     if not os.path.exists(path):
         raise ClumpFileError("cannot read: No such file or directory", str(path))
-    return _READERS[fmt](path, scale)
+    if diameter is not None:
+        if fmt != "lammps":
+            raise ValueError(f"diameter applies only to LAMMPS molecule files, not to format {fmt!r}")
+        return _reader(fmt)(path, scale, diameter=float(diameter))
+    return _reader(fmt)(path, scale)
