@@ -33,3 +33,14 @@ def _int(text: str) -> int:
         return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+
+
+def add_input_options(parser: argparse.ArgumentParser, formats) -> None:
+    """Add the input options every command that reads a clump file shares: ``--from FMT`` (the
+    format, detected from the file's content by default) and ``--diameter D`` (LAMMPS molecule
+    files without a ``Diameters`` section)."""
+    parser.add_argument("--from", dest="fmt", choices=formats, metavar="FMT",
+                        help=f"input format, one of {', '.join(formats)} (default: detected from the content)")
+    parser.add_argument("--diameter", type=_positive_float, metavar="D",
+                        help="LAMMPS molecule file without a Diameters section: every atom's diameter, in the "
+                        "file's length units")

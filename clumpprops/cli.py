@@ -38,7 +38,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__, mass_properties
-from ._argtypes import _int, _positive_float, _positive_int
+from ._argtypes import _int, _positive_float, _positive_int, add_input_options
 from ._clumps import Clump, ClumpFileError
 from .io.detect import FORMATS
 from .textclumps import read_text_clumps
@@ -83,11 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("file", metavar="FILE", help="clump file (any format of --from), or '-' for a textClumps "
                    "file on standard input")
-    p.add_argument("--from", dest="fmt", choices=FORMATS, metavar="FMT",
-                   help=f"input format, one of {', '.join(FORMATS)} (default: detected from the content)")
-    p.add_argument("--diameter", type=_positive_float, metavar="D",
-                   help="LAMMPS molecule file without a Diameters section: every atom's diameter, in the "
-                   "file's length units")
+    add_input_options(p, FORMATS)
     p.add_argument(
         "--method",
         choices=METHODS,

@@ -1,6 +1,6 @@
 """``clumpprops show FILE -o FILE.png``: a picture of a clump with its principal axes.
 
-    clumpprops show FILE -o OUT.png [--clump N] [--size PX] [--from FMT] [--scale S] [--force]
+    clumpprops show FILE -o OUT.png [--clump N] [--size PX] [--from FMT] [--diameter D] [--scale S] [--force]
 
 Draws the clump's spheres, shaded, and its principal axes as arrows from the centre of mass
 along the positive axis directions, each as long as the union reaches along it and labelled
@@ -18,7 +18,7 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from ._argtypes import _positive_float
+from ._argtypes import _positive_float, add_input_options
 from .mesh import principal_extents
 
 PROG = "clumpprops show"
@@ -162,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--density", type=_positive_float, default=1000.0, metavar="RHO",
                    help="density in kg/m^3 for the moments in the labels (default: 1000)")
     p.add_argument("--scale", type=_positive_float, default=1.0, metavar="S", help="multiply lengths by S")
-    p.add_argument("--from", dest="fmt", choices=FORMATS, help="input format (default: from the file)")
+    add_input_options(p, FORMATS)
     p.add_argument("--force", action="store_true", help="replace OUT.png if it exists")
     return p
 
@@ -190,7 +190,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if os.path.exists(args.output) and not args.force:
         return _fail(f"{args.output}: exists; nothing written (--force replaces it)")
     try:
-        clumps = read(args.file, args.fmt, scale=args.scale)
+        clumps = read(args.file, args.fmt, scale=args.scale, diameter=args.diameter)
         if not 0 <= args.clump < len(clumps):
             return _fail(f"{args.file}: --clump {args.clump} out of range: the file holds {len(clumps)} clump(s)")
         c = clumps[args.clump]

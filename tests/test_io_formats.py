@@ -188,3 +188,19 @@ def test_four_whitespace_columns_named_txt_stay_textclumps(tmp_path):
     assert detect_format(p) == "yade"
     (c,) = read(p, fmt="liggghts")
     assert np.array_equal(c.radii, [1.0])
+
+
+@pytest.mark.parametrize("command", ["export", "show"])
+def test_export_and_show_take_the_diameter_of_a_molecule_without_diameters(tmp_path, command):
+    """The subcommands that read a clump file share the main command's input options."""
+    p = _write(tmp_path, "molecule.vshape", "vshape\n\n2 atoms\n\nCoords\n\n1 0 0 0\n2 1 0 0\n")
+    args = {"export": ["export", str(p), "--to", "yade", "--out", str(tmp_path / "out")],
+            "show": ["show", str(p), "-o", str(tmp_path / "v.png")]}[command]
+    assert cli_main(args) == 1                          # radii unknown: refused
+    assert cli_main(args + ["--diameter", "2"]) == 0
+    if command == "export":
+        (c,) = read(tmp_path / "out" / "molecule_textclumps.txt")
+        assert np.array_equal(c.radii, [1.0, 1.0])
+        assert np.linalg.norm(c.centers[1] - c.centers[0]) == pytest.approx(1.0, rel=1e-15)
+    else:
+        assert (tmp_path / "v.png").stat().st_size > 10_000

@@ -1,7 +1,7 @@
 """``clumpprops export FILE --to ENGINE``: clump files with exact values for a DEM engine.
 
     clumpprops export FILE --to {liggghts,lammps,deme,mclump,yade,vtk,stl} [--out DIR]
-                      [--density RHO] [--method M] [--scale S] [--from FMT] [--name STEM]
+                      [--density RHO] [--method M] [--scale S] [--from FMT] [--diameter D] [--name STEM]
                       [--no-templates] [--force] [--deck [--velocity VX VY VZ] [--spin WX WY WZ]
                       [--steps N] [--dt DT]] [--tolerance REL]
 
@@ -17,7 +17,7 @@ import sys
 from typing import Optional, Sequence
 
 from .. import DEFAULT_METHOD, METHODS, ClumpGeometryError, __version__
-from .._argtypes import _positive_float
+from .._argtypes import _positive_float, add_input_options
 from . import ENGINES, FORMATS, ClumpFileError, compute, export, read
 
 PROG = "clumpprops export"
@@ -79,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD, help=f"default: {DEFAULT_METHOD}")
     p.add_argument("--scale", type=_positive_float, default=1.0, metavar="S",
                    help="multiply coordinates and radii by S, e.g. 0.001 for a file in mm (outputs are in m)")
-    p.add_argument("--from", dest="fmt", choices=FORMATS, help="input format (default: from the file's content, else its name)")
+    add_input_options(p, FORMATS)
     p.add_argument("--name", metavar="STEM", help="stem of the output files that hold all clumps")
     p.add_argument("--no-templates", action="store_true",
                    help="lammps, deme: skip the per-clump .mol / .csv files (large batches: the .rigid/.data or the "
@@ -112,7 +112,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     _check_deck_options(parser, args)
     warnings = []
     try:
-        clumps = read(args.file, args.fmt, scale=args.scale)
+        clumps = read(args.file, args.fmt, scale=args.scale, diameter=args.diameter)
         mp = compute(clumps, args.density, args.method)
         paths = export(clumps, args.to, args.out, args.density, args.method, source=args.file, scale=args.scale,
                        stem=args.name, mp=mp, warn=warnings.append,
