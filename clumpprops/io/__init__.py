@@ -1,4 +1,5 @@
-"""Exporters and importers: exact sphere clumps for DEM engines (LIGGGHTS, LAMMPS, DEME, MercuryDPM, YADE).
+"""Exporters and importers: exact sphere clumps for DEM engines (LIGGGHTS, LAMMPS, DEME, MercuryDPM, YADE)
+and for viewers (``vtk`` for ParaView, ``stl``: the union's surface; docs/visualise.md).
 
 :func:`read` detects the format from the file's content (:func:`detect_format`; the name
 decides only where the content shows none), or takes it as ``fmt="csv"``, ...:
