@@ -28,7 +28,7 @@ from .api import _compiled
 class ShapeDescriptors:
     """Exact shape descriptors of a clump, or of a batch (a leading axis M on every array).
 
-    Attributes
+    Parameters
     ----------
     volume : float or ndarray (M,)
         Volume of the union, m^3.

@@ -47,14 +47,27 @@ def parser_of(module_name):
     raise RuntimeError(f"{module_name}.main returned without parsing its arguments")
 
 
+def literal_epilog(parser):
+    """``parser`` with its epilog as a reST literal block: the ``clumpprops`` epilogs are laid out
+    for a terminal (lists of subcommands and of files, indented), which reST would misread."""
+    if parser.epilog:
+        parser.epilog = "::\n\n" + textwrap.indent(parser.epilog, "   ")
+    return parser
+
+
 def clumpprops_parser():
     """``clumpprops FILE``."""
-    return parser_of("clumpprops.cli")
+    return literal_epilog(parser_of("clumpprops.cli"))
 
 
 def export_parser():
     """``clumpprops export FILE --to ENGINE``."""
-    return parser_of("clumpprops.io.cli")
+    return literal_epilog(parser_of("clumpprops.io.cli"))
+
+
+def show_parser():
+    """``clumpprops show FILE -o OUT.png``."""
+    return literal_epilog(parser_of("clumpprops.show"))
 
 
 def studies_parser():
