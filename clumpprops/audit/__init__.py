@@ -80,7 +80,7 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
         "exact": _row(exact, exact),
         "methods": [_row(e, exact) for e in rows[1:]],
         "advice": [vars(a) for a in adv],
-        "curves": {"LIGGGHTS Monte Carlo": [(2 * n, advice.Z95 * s / np.sqrt(n)) for n in np.logspace(3, 9, 13)],
+        "curves": {"LIGGGHTS Monte Carlo": [(2 * n, advice.Z_JOINT * s / np.sqrt(n)) for n in np.logspace(3, 9, 13)],
                    "YADE voxel": [(cells, err) for _, cells, err in vox_curve],
                    "Halton QMC (DEME)": qmc_curve},
         "qmc_frame_error": frame,

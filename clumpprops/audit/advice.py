@@ -5,12 +5,13 @@ moments against the exact values.
 
 * Monte Carlo (LIGGGHTS): the standard error of each quantity is ``s / sqrt(ntry)`` with the
   per-point relative standard deviation ``s`` measured in the default run, so
-  ``ntry = (1.96 s / tol)^2`` for the worst quantity.  A bias that sampling does not remove
+  ``ntry = (z s / tol)^2`` for the worst quantity, z = 2.50 so that all four quantities are
+  within the tolerance together with probability >= 95 % (Bonferroni).  A bias that sampling does not remove
   (LIGGGHTS 3.8.0's Iyz) makes a tolerance below it unreachable.
 * YADE voxel: deterministic; the error is computed at discretization 5, 10, 20, ... until it
   is within the tolerance (up to ``max_cells`` grid cells).
 * Halton quasi-Monte Carlo: the root-mean-square error over scrambles is measured at increasing
-  N, fitted as ``a N^-b`` on a log-log scale, and N chosen so that ``1.96 rms <= tol``.  The
+  N, fitted as ``a N^-b`` on a log-log scale, and N chosen so that ``2.50 rms <= tol``.  The
   error is that of the estimated diagonal; when the file's frame is not principal, DEME's
   diagonal also carries the frame error, which no N removes (reported as ``frame_error``).
 """
@@ -26,6 +27,9 @@ import numpy as np
 from . import methods
 
 Z95 = 1.959963984540054  # two-sided 95 % normal quantile
+#: The two-sided normal quantile that keeps four quantities (mass, three moments) within their
+#: bounds together with probability >= 95 % (Bonferroni: 1.25 % per side and quantity).
+Z_JOINT = 2.4977054744123026
 VOXEL_LADDER = (5, 10, 20, 40, 80, 160, 320, 640)
 QMC_LADDER = tuple(2 ** k for k in range(8, 14))
 QMC_SCRAMBLES = 6
@@ -101,9 +105,9 @@ def montecarlo(default, exact, tolerances, iyz_bias=0.0) -> List[Advice]:
             out.append(Advice(default.method, tol, None, None, None,
                               f"unreachable: the Iyz defect alone gives {100 * iyz_bias:.3g} %"))
             continue
-        n = max(1000, math.ceil((Z95 * s / (tol - iyz_bias)) ** 2))
+        n = max(1000, math.ceil((Z_JOINT * s / (tol - iyz_bias)) ** 2))
         out.append(Advice(default.method, tol, n, 2 * n, default.seconds * n / ntry0,
-                          f"(1.96 s/tol)^2, s = {s:.3g} per point"))
+                          f"(2.50 s/tol)^2, s = {s:.3g} per point"))
     return out
 
 
@@ -178,7 +182,7 @@ def qmc(centers, radii, density, exact, tolerances, seed=None, ladder=QMC_LADDER
     -------
     advice : list of Advice
     curve : list of (int, float)
-        (N, 1.96 times the root-mean-square largest relative error) measured.
+        (N, 2.50 times the root-mean-square largest relative error) measured.
     """
     ref = np.concatenate([[exact.mass], np.diag(exact.extra["inertia"])])
     root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -188,18 +192,32 @@ def qmc(centers, radii, density, exact, tolerances, seed=None, ladder=QMC_LADDER
         t0 = time.perf_counter()
         errs = [_qmc_error(centers, radii, density, n, seeds[i * scrambles + j], ref) for j in range(scrambles)]
         per_point.append((time.perf_counter() - t0) / (scrambles * n))
-        curve.append((n, Z95 * float(np.sqrt(np.mean(np.square(errs))))))
+        curve.append((n, Z_JOINT * float(np.sqrt(np.mean(np.square(errs))))))
     logn, loge = np.log([c[0] for c in curve]), np.log([max(c[1], 1e-300) for c in curve])
     slope, icpt = np.polyfit(logn, loge, 1)
     rate = float(np.median(per_point))
-    advice = []
-    for tol in tolerances:
+    advice, more = [], root.spawn(1)[0]
+    for tol in sorted(tolerances, reverse=True):
         if slope >= 0:
             advice.append(Advice("Halton QMC (DEME)", tol, None, None, None, "error does not fall with N"))
             continue
         n = max(16, int(math.ceil(math.exp((math.log(tol) - icpt) / slope))))
-        advice.append(Advice("Halton QMC (DEME)", tol, n, n, rate * n, f"fit rms ~ N^{slope:.2f}"))
-    return advice, curve
+        n, note = _confirm(centers, radii, density, ref, n, tol, slope, scrambles, more, curve)
+        advice.append(Advice("Halton QMC (DEME)", tol, n, n, rate * n, f"fit rms ~ N^{slope:.2f}, {note}"))
+    order = {tol: i for i, tol in enumerate(tolerances)}
+    return sorted(advice, key=lambda a: order[a.tolerance]), sorted(curve)
+
+
+def _confirm(centers, radii, density, ref, n, tol, slope, scrambles, seeds, curve, tries=3):
+    """Measure the error at the extrapolated N and grow N until it is within the tolerance."""
+    for _ in range(tries):
+        errs = [_qmc_error(centers, radii, density, n, s, ref) for s in seeds.spawn(scrambles)]
+        bound = Z_JOINT * float(np.sqrt(np.mean(np.square(errs))))
+        curve.append((n, bound))
+        if bound <= tol:
+            return n, "measured"
+        n = int(math.ceil(1.1 * n * (bound / tol) ** (-1.0 / slope)))
+    return n, "extrapolated"
 
 
 def _qmc_error(centers, radii, density, n, seed, ref):
