@@ -111,7 +111,7 @@ def read_liggghts_script(path) -> List[Stated]:
     src = str(path)
     out = []
     for lineno, w in _logical_lines(path.read_text()):
-        if len(w) < 3 or w[0] != "fix" or w[2] != "particletemplate/multisphere":
+        if len(w) < 4 or w[0] != "fix" or w[3] != "particletemplate/multisphere":  # fix ID group style
             continue
         kw = {k: i for i, k in enumerate(w)}
         clump = _liggghts_spheres(w, kw, path, lineno)
@@ -304,8 +304,9 @@ def read_stated(path) -> List[Stated]:
     Parameters
     ----------
     path : str or os.PathLike
-        A LIGGGHTS input script, LAMMPS molecule file or ``fix rigid`` infile, DEME JSON, or an
-        MClump folder (or its ``clumpprops.txt``).
+        A LIGGGHTS input script, LAMMPS molecule file or ``fix rigid`` infile (a first line with
+        the number of bodies, then body lines), DEME JSON, or an MClump folder (or its
+        ``clumpprops.txt``).
 
     Returns
     -------
@@ -329,4 +330,8 @@ def read_stated(path) -> List[Stated]:
     lines = text.splitlines()
     if any(ln.split("#", 1)[0].split()[-1:] in (["mass"], ["inertia"]) for ln in lines[1:40]):
         return read_lammps_molecule(p)
+    data = [ln.split("#", 1)[0].split() for ln in lines]
+    data = [w for w in data if w]
+    if data and len(data[0]) == 1 and data[0][0].isdigit() and all(len(w) >= 11 for w in data[1:]):
+        return read_rigid_infile(p)
     return []
