@@ -11,7 +11,7 @@ moments against the exact values.
 * YADE voxel: deterministic; the error is computed at discretization 5, 10, 20, ... until it
   is within the tolerance (up to ``max_cells`` grid cells).
 * Halton quasi-Monte Carlo: the root-mean-square error over scrambles is measured at increasing
-  N, fitted as ``a N^-b`` on a log-log scale, and N chosen so that ``2.50 rms <= tol``.  The
+  N, its largest five fitted as ``a N^-b`` on a log-log scale, and N chosen so that ``2.50 rms <= tol``.  The
   error is that of the estimated diagonal; when the file's frame is not principal, DEME's
   diagonal also carries the frame error, which no N removes (reported as ``frame_error``).
 """
@@ -31,7 +31,8 @@ Z95 = 1.959963984540054  # two-sided 95 % normal quantile
 #: bounds together with probability >= 95 % (Bonferroni: 1.25 % per side and quantity).
 Z_JOINT = 2.4977054744123026
 VOXEL_LADDER = (5, 10, 20, 40, 80, 160, 320, 640)
-QMC_LADDER = tuple(2 ** k for k in range(8, 14))
+QMC_LADDER = tuple(2 ** k for k in range(8, 16))
+QMC_FIT_POINTS = 5  # the largest N of the ladder enter the fit (the asymptotic rate)
 QMC_SCRAMBLES = 6
 
 
@@ -193,7 +194,8 @@ def qmc(centers, radii, density, exact, tolerances, seed=None, ladder=QMC_LADDER
         errs = [_qmc_error(centers, radii, density, n, seeds[i * scrambles + j], ref) for j in range(scrambles)]
         per_point.append((time.perf_counter() - t0) / (scrambles * n))
         curve.append((n, Z_JOINT * float(np.sqrt(np.mean(np.square(errs))))))
-    logn, loge = np.log([c[0] for c in curve]), np.log([max(c[1], 1e-300) for c in curve])
+    fit = curve[-QMC_FIT_POINTS:]
+    logn, loge = np.log([c[0] for c in fit]), np.log([max(c[1], 1e-300) for c in fit])
     slope, icpt = np.polyfit(logn, loge, 1)
     rate = float(np.median(per_point))
     advice, more = [], root.spawn(1)[0]

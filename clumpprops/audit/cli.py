@@ -71,6 +71,9 @@ def _load(path: str, stated_path: Optional[str]):
     stated = read_stated(path) if Path(path).exists() else []
     if stated and all(s.clump is not None for s in stated):
         pairs = [(s.clump, [s]) for s in stated]
+    elif stated:
+        raise ClumpFileError("states mass properties but no spheres: pass the clump file as FILE and this one "
+                             "as --stated", path, None)
     else:
         pairs = [(c, []) for c in read(path)]
     if stated_path:
