@@ -35,7 +35,7 @@ YADE = {
 }
 
 SLOW = {
-    "test_decks.py", "test_granular_gas_rigid.py", "test_gk_sensitivity.py", "test_kinetic.py", "test_report.py", "test_study_analysis.py",
+    "test_audit_liggghts.py", "test_decks.py", "test_granular_gas_rigid.py", "test_gk_sensitivity.py", "test_kinetic.py", "test_report.py", "test_study_analysis.py",
     "test_study_engine.py", "test_sweep_script.py", "test_timestep.py", "test_yade_registry.py",
 }
 
