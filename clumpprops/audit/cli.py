@@ -13,7 +13,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import List, Optional, Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -189,6 +189,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     if args.plot and Path(args.plot).exists() and not args.force:
         return _fail(f"{args.plot} exists; pass --force to replace it")
+    if args.plot:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            return _fail("--plot needs matplotlib (pip install 'clumpprops[studies]')")
     try:
         pairs = _load(args.file, args.stated)
         reports = [(c.name or str(i + 1), audit_clump(c.centers, c.radii, args.density, args.tolerance, args.seed,

@@ -19,8 +19,8 @@ moments (kg m^2) as that engine's method computes them.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -161,8 +161,6 @@ def yade_voxel(centers, radii, density, discretization=YADE_DISCRETIZATION) -> E
 
 
 def _from_library(method, centers, radii, density, label, **options) -> Estimate:
-    import time
-
     t0 = time.perf_counter()
     mp = mass_properties(np.asarray(centers, float), np.asarray(radii, float), density=density, method=method,
                          **options)
@@ -196,8 +194,6 @@ def liggghts_montecarlo(centers, radii, density, ntry=LIGGGHTS_NTRY, seed=None, 
     ValueError
         If ``ntry`` is below 1000.
     """
-    import time
-
     if int(ntry) < 1000:
         raise ValueError(f"ntry must be at least 1000 (LIGGGHTS refuses fewer), got {ntry}")
     t0 = time.perf_counter()
@@ -265,8 +261,6 @@ def halton_qmc(centers, radii, density, n_points=QMC_POINTS, seed=None) -> Estim
     ValueError
         If ``n_points`` is below 16.
     """
-    import time
-
     from scipy.stats import qmc
 
     if int(n_points) < 16:
