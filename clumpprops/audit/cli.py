@@ -56,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="relative tolerances on mass and each principal moment (default: 0.01 0.001)")
     p.add_argument("--density", type=_positive_float, default=1000.0, metavar="RHO", help="kg/m^3 (default 1000)")
     p.add_argument("--seed", type=_int, metavar="S", help="seed of the sampled methods (default: fresh entropy)")
-    p.add_argument("--ntry", type=_positive_int, default=methods.LIGGGHTS_NTRY, help="LIGGGHTS ntry shown (default %(default)s)")
+    p.add_argument("--ntry", type=_positive_int, default=methods.LIGGGHTS_NTRY, help="LIGGGHTS ntry shown (default %(default)s, the value of LIGGGHTS' multisphere example; LIGGGHTS has no default)")
     p.add_argument("--discretization", type=_positive_int, default=methods.YADE_DISCRETIZATION,
                    help="YADE discretization shown (default %(default)s, updateClumpProperties' default)")
     p.add_argument("--stated", metavar="FILE2", help="read stated values from FILE2 instead (e.g. a fix rigid infile)")

@@ -26,7 +26,8 @@ import numpy as np
 
 from .. import mass_properties
 
-#: LIGGGHTS ``particletemplate/multisphere`` default ``ntry`` used when the deck gives none.
+#: LIGGGHTS ``particletemplate/multisphere`` requires ``ntry`` (it has no default: "need 'ntry' to be
+#: defined"); 10^6 is the value its documentation's multisphere example uses.
 LIGGGHTS_NTRY = 1_000_000
 #: YADE ``updateClumpProperties`` default discretization.
 YADE_DISCRETIZATION = 5
