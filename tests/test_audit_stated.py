@@ -121,3 +121,19 @@ def test_rigid_infile_with_summed_values_through_the_cli(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "stated: LAMMPS fix rigid infile (body 1)" in out
     assert "overlap error: the mass is the summed spheres'" in out
+
+
+def test_the_audit_takes_the_density_a_liggghts_script_states(tmp_path, capsys):
+    rho = 2500.0
+    ex = methods.exact(CENTERS, RADII, rho)
+    rel = CENTERS - ex.com
+    spheres = " ".join(" ".join(map(repr, [*c, r])) for c, r in zip(rel, RADII))
+    (tmp_path / "in.rho").write_text(
+        f"fix t all particletemplate/multisphere 1 atom_type 1 density constant {rho} nspheres 3 ntry 100000 "
+        f"spheres {spheres} type 1 mass {ex.mass!r} inertia_tensor " + " ".join(map(repr, _tensor6(ex.extra["inertia"])))
+        + " use_density\n")
+    assert main([str(tmp_path / "in.rho"), "--ntry", "20000", "--seed", "1", "--tolerance", "0.05"]) == 0
+    out = capsys.readouterr().out
+    assert "density 2500 kg/m^3" in out and "agrees with the exact values" in out
+    assert main([str(tmp_path / "in.rho"), "--density", "1000", "--ntry", "20000", "--seed", "1", "--tolerance", "0.05"]) == 0
+    assert "agrees with the exact values" not in capsys.readouterr().out

@@ -77,6 +77,7 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
     adv = advice.montecarlo(mc, exact, tolerances) + advice.montecarlo(mc38, exact, tolerances, bias) + vox_adv + qmc_adv
     s = float(np.max(mc.extra["rel_sd"]))
     return {
+        "density": float(density),
         "exact": _row(exact, exact),
         "methods": [_row(e, exact) for e in rows[1:]],
         "advice": [vars(a) for a in adv],

@@ -54,12 +54,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "(LIGGGHTS input script, LAMMPS molecule file, DEME JSON, MClump folder)")
     p.add_argument("--tolerance", type=_fraction, nargs="+", default=[0.01, 0.001], metavar="TOL",
                    help="relative tolerances on mass and each principal moment (default: 0.01 0.001)")
-    p.add_argument("--density", type=_positive_float, default=1000.0, metavar="RHO", help="kg/m^3 (default 1000)")
+    p.add_argument("--density", type=_positive_float, metavar="RHO",
+                   help="kg/m^3 (default: the density FILE states, e.g. LIGGGHTS' 'density constant', else 1000)")
     p.add_argument("--seed", type=_int, metavar="S", help="seed of the sampled methods (default: fresh entropy)")
     p.add_argument("--ntry", type=_positive_int, default=methods.LIGGGHTS_NTRY, help="LIGGGHTS ntry shown (default %(default)s, the value of LIGGGHTS' multisphere example; LIGGGHTS has no default)")
     p.add_argument("--discretization", type=_positive_int, default=methods.YADE_DISCRETIZATION,
                    help="YADE discretization shown (default %(default)s, updateClumpProperties' default)")
-    p.add_argument("--stated", metavar="FILE2", help="read stated values from FILE2 instead (e.g. a fix rigid infile)")
+    p.add_argument("--stated", metavar="FILE2", help="also diagnose the values FILE2 states (e.g. a fix rigid infile), one body per clump of FILE")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--plot", metavar="PNG", help="write relative error against samples/voxels, log-log")
     p.add_argument("--force", action="store_true", help="allow --plot to replace an existing file")
@@ -86,6 +87,13 @@ def _load(path: str, stated_path: Optional[str]):
     return pairs
 
 
+def _density(given, stated, default=1000.0):
+    """--density, else the density the file states, else YADE's default material density."""
+    if given is not None:
+        return given
+    return next((s.density for s in stated if s.density is not None), default)
+
+
 def _pct(x):
     return f"{100 * x:+9.3g}"
 
@@ -105,7 +113,7 @@ def format_table(reports) -> str:
     out = []
     for name, rep in reports:
         ex = rep["exact"]
-        out.append(f"# clump {name}: exact mass {ex['mass']:.10g} kg, volume {ex['volume']:.10g} m^3, com "
+        out.append(f"# clump {name}, density {rep['density']:g} kg/m^3: exact mass {ex['mass']:.10g} kg, volume {ex['volume']:.10g} m^3, com "
                    + " ".join(f"{x:.6g}" for x in ex["com"]) + " m, principal moments "
                    + " ".join(f"{x:.10g}" for x in ex["principal_moments"]) + " kg m^2")
         out.append(f"{'method':<32} {'setting':<22} {'mass %':>9} {'I1 %':>9} {'I2 %':>9} {'I3 %':>9} {'seconds':>8}")
@@ -196,8 +204,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _fail("--plot needs matplotlib (pip install 'clumpprops[studies]')")
     try:
         pairs = _load(args.file, args.stated)
-        reports = [(c.name or str(i + 1), audit_clump(c.centers, c.radii, args.density, args.tolerance, args.seed,
-                                                       args.ntry, args.discretization, stated=st))
+        reports = [(c.name or str(i + 1), audit_clump(c.centers, c.radii, _density(args.density, st), args.tolerance,
+                                                       args.seed, args.ntry, args.discretization, stated=st))
                    for i, (c, st) in enumerate(pairs)]
     except ClumpFileError as exc:
         return _fail(str(exc))
@@ -208,7 +216,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.plot:
         plot(reports, args.tolerance, args.plot)
     if args.json:
-        sys.stdout.write(json.dumps(_jsonable({"file": args.file, "density": args.density,
+        sys.stdout.write(json.dumps(_jsonable({"file": args.file,
                                                "clumps": [dict(rep, name=n) for n, rep in reports]}), indent=1) + "\n")
     else:
         sys.stdout.write(format_table(reports))

@@ -54,6 +54,8 @@ class Stated:
         The engine uses only the diagonal (DEME's ``moi``): the frame must be principal.
     source : str
         File and line the values come from.
+    density : float or None
+        The density the file gives (kg/m^3), when it gives one.
     """
 
     clump: Optional[Clump]
@@ -63,6 +65,7 @@ class Stated:
     reference: np.ndarray
     diagonal_only: bool = False
     source: str = ""
+    density: Optional[float] = None
 
 
 def _logical_lines(text):
@@ -122,8 +125,11 @@ def read_liggghts_script(path) -> List[Stated]:
             if len(a) != 6:
                 raise ClumpFileError("inertia_tensor needs six values", src, lineno)
             inertia = np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]])
+        rho = None
+        if "density" in kw and w[kw["density"] + 1] == "constant":
+            rho = _float(w[kw["density"] + 2], src, lineno)
         out.append(Stated(clump, "LIGGGHTS particletemplate/multisphere", mass, inertia, np.zeros(3),
-                          source=f"{src}:{lineno}"))
+                          source=f"{src}:{lineno}", density=rho))
     return out
 
 
@@ -256,7 +262,8 @@ def read_deme_json(path) -> List[Stated]:
         for it in items:
             clump = Clump(np.asarray(it["relPos"], float), np.asarray(it["radii"], float), name=str(it.get("name", "")))
             out.append(Stated(clump, "DEM-Engine LoadClumpType", float(it["mass"]), np.diag(np.asarray(it["moi"], float)),
-                              np.zeros(3), diagonal_only=True, source=f"{src}:{it.get('name', '')}"))
+                              np.zeros(3), diagonal_only=True, source=f"{src}:{it.get('name', '')}",
+                              density=float(doc["density"]) if "density" in doc else None))
         return out
     except (ValueError, KeyError, TypeError) as exc:
         raise ClumpFileError(f"not a DEME clump JSON ({type(exc).__name__}: {exc})", src, None) from None
