@@ -4,10 +4,9 @@ Engines take a clump's mass and inertia from the user's files; this module reads
 that ``clumpprops audit`` can compare them with the exact values:
 
 * LIGGGHTS input scripts: ``fix ... particletemplate/multisphere ... mass M ... inertia_tensor
-  Ixx Ixy Ixz Iyy Iyz Izz`` (continuation lines ending in ``&`` joined).  LIGGGHTS uses the
-  tensor about the sphere file's origin, which it then treats as the centre of mass; the
-  spheres come from ``spheres file NAME scale S`` (relative to the script) or inline
-  ``spheres x y z r ...``;
+  Ixx Ixy Ixz Iyy Iyz Izz`` (spheres and command syntax as
+  :mod:`clumpprops.io.liggghts_script` reads them).  LIGGGHTS uses the tensor about the sphere
+  file's origin, which it then treats as the centre of mass;
 * LAMMPS molecule files: the header keywords ``mass``, ``com`` and ``inertia`` (six values,
   in the order LAMMPS stores them: Ixx Iyy Izz Iyz Ixz Ixy; see
   :func:`clumpprops.io.lammps.molecule_inertia_words`), the inertia about ``com``;
@@ -24,7 +23,6 @@ Each reader returns :class:`Stated` records: the clump geometry and what the fil
 from __future__ import annotations
 
 import json
-import shlex
 from dataclasses import dataclass
 from pathlib import Path
 from typing import List, Optional
@@ -32,6 +30,7 @@ from typing import List, Optional
 import numpy as np
 
 from ._common import Clump, ClumpFileError
+from .detect import _TEMPLATE
 
 
 @dataclass
@@ -68,22 +67,6 @@ class Stated:
     density: Optional[float] = None
 
 
-def _logical_lines(text):
-    """(first line number, words) of each command, '&' continuations joined, '#' comments dropped."""
-    buf, start = [], None
-    for i, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("#", 1)[0].rstrip()
-        if start is None:
-            start = i
-        cont = line.endswith("&")
-        buf.append(line[:-1] if cont else line)
-        if not cont:
-            words = shlex.split(" ".join(buf), posix=True)
-            if words:
-                yield start, words
-            buf, start = [], None
-
-
 def _float(word, src, lineno):
     try:
         return float(word)
@@ -102,51 +85,39 @@ def read_liggghts_script(path) -> List[Stated]:
     Returns
     -------
     list of Stated
-        One per template; ``mass``/``inertia`` None when the template leaves them to LIGGGHTS'
-        Monte Carlo.
+        One per template, in script order, the spheres as
+        :func:`clumpprops.io.liggghts_script.read_liggghts_script` reads them; ``mass``/``inertia``
+        None when the template leaves them to LIGGGHTS' Monte Carlo.
 
     Raises
     ------
     ClumpFileError
         If a template is malformed or its sphere file cannot be read.
     """
+    from .liggghts_script import _commands, read_liggghts_script as read_templates
+
     path = Path(path)
     src = str(path)
-    out = []
-    for lineno, w in _logical_lines(path.read_text()):
-        if len(w) < 4 or w[0] != "fix" or w[3] != "particletemplate/multisphere":  # fix ID group style
-            continue
-        kw = {k: i for i, k in enumerate(w)}
-        clump = _liggghts_spheres(w, kw, path, lineno)
-        mass = _float(w[kw["mass"] + 1], src, lineno) if "mass" in kw else None
-        inertia = None
-        if "inertia_tensor" in kw:
-            a = [_float(x, src, lineno) for x in w[kw["inertia_tensor"] + 1:kw["inertia_tensor"] + 7]]
-            if len(a) != 6:
-                raise ClumpFileError("inertia_tensor needs six values", src, lineno)
-            inertia = np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]])
-        rho = None
-        if "density" in kw and w[kw["density"] + 1] == "constant":
-            rho = _float(w[kw["density"] + 2], src, lineno)
-        out.append(Stated(clump, "LIGGGHTS particletemplate/multisphere", mass, inertia, np.zeros(3),
-                          source=f"{src}:{lineno}", density=rho))
-    return out
+    clumps = read_templates(path)
+    commands = [(first, [w for w, _ in words]) for first, words in _commands(path.read_text().splitlines())
+                if _TEMPLATE.match(" ".join(w for w, _ in words[:4]))]
+    return [_liggghts_stated(w, clump, src, lineno) for clump, (lineno, w) in zip(clumps, commands)]
 
 
-def _liggghts_spheres(w, kw, path, lineno) -> Clump:
-    src = str(path)
-    if "spheres" not in kw or "nspheres" not in kw:
-        raise ClumpFileError("template without nspheres/spheres", src, lineno)
-    n = int(_float(w[kw["nspheres"] + 1], src, lineno))
-    i = kw["spheres"] + 1
-    if w[i] == "file":
-        from .readers import read
-
-        scale = _float(w[i + 3], src, lineno) if w[i + 2] == "scale" else 1.0
-        clumps = read(path.parent / w[i + 1], fmt="liggghts", scale=scale)
-        return clumps[0]
-    v = np.array([_float(x, src, lineno) for x in w[i:i + 4 * n]]).reshape(n, 4)
-    return Clump(v[:, :3], v[:, 3], name=w[1])
+def _liggghts_stated(w, clump, src, lineno) -> Stated:
+    kw = {k: i for i, k in enumerate(w)}
+    mass = _float(w[kw["mass"] + 1], src, lineno) if "mass" in kw else None
+    inertia = None
+    if "inertia_tensor" in kw:
+        a = [_float(x, src, lineno) for x in w[kw["inertia_tensor"] + 1:kw["inertia_tensor"] + 7]]
+        if len(a) != 6:
+            raise ClumpFileError("inertia_tensor needs six values", src, lineno)
+        inertia = np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]])
+    rho = None
+    if "density" in kw and w[kw["density"] + 1] == "constant":
+        rho = _float(w[kw["density"] + 2], src, lineno)
+    return Stated(clump, "LIGGGHTS particletemplate/multisphere", mass, inertia, np.zeros(3),
+                  source=f"{src}:{lineno}", density=rho)
 
 
 def read_lammps_molecule(path, clump: Optional[Clump] = None) -> List[Stated]:
