@@ -54,6 +54,8 @@ SUBCOMMANDS = {
     "export": ("clumpprops.io.cli", "write the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, "
                "with the exact values"),
     "show": ("clumpprops.show", "draw a clump with its principal axes into a PNG file"),
+    "audit": ("clumpprops.audit.cli", "compare each engine's own mass properties (sums, voxels, Monte Carlo, stated "
+              "values) with the exact ones; samples or voxels needed for a tolerance"),
 }
 
 
