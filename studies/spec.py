@@ -77,12 +77,16 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
               "dt_factor": (_NUM, False, None, "pos"), "start": (str, False, None, "start"),
               "energy_per_particle": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
               "n_particles": (int, False, None, "pos"),
+              "restitution": (_NUM, False, None, "restitution"),
+              "tangential_restitution": (_NUM, False, None, "restitution"),
+              "friction": (_NUM, False, None, "nonneg"), "cooling_stop": (_NUM, False, None, "cooling_stop"),
               "target": (dict, False, None, None), "max_seeds": (int, False, None, "pos")}
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
-             "start": "gas", "energy_per_particle": "gas", "n_particles": "gas"}
+             "start": "gas", "energy_per_particle": "gas", "n_particles": "gas", "restitution": "material",
+             "tangential_restitution": "material", "friction": "material", "cooling_stop": "run"}
 
 
 def analysis_windows(spec):
@@ -178,7 +182,8 @@ def _validate_group(where, g, spec):
             raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
     props = shapes.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
     sph = dict(spec["spheres"], density=spec["material"]["density"])
-    check_contact_route(f"{where}.cases", spec["material"],
+    mat = dict(spec["material"], **{k: gd[k] for k in OPTIONAL_KEYS["material"] if gd[k] is not None})
+    check_contact_route(f"{where}.cases", mat,
                         {c: gas_model.resolve_case(props, c, sph) for c in gd["cases"]})
     if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
         raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
