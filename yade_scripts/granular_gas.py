@@ -303,7 +303,7 @@ facts = {
     "python": sys.version.split()[0],
     "numpy": np.__version__,
     "n_particles": N, "dt": DT, "n_steps": N_STEPS, "rec_steps": N_REC,
-    "wall_setup_s": setup_s, "wall_run_s": run_s, "steps_per_s": N_STEPS / max(run_s, 1e-9),
+    "wall_setup_s": setup_s, "wall_run_s": run_s, "steps_per_s": O.iter / max(run_s, 1e-9),
     "builder": body["builder"], "route": ROUTE,
     "body_mass": float(parts[0].state.mass), "body_inertia": [float(x) for x in parts[0].state.inertia],
     "com_offset_max": float(np.max(np.abs(COM_OFFSET))),
