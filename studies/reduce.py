@@ -35,8 +35,9 @@ def _even_frames(t):
 
 
 def checks(frames, n_particles, mass, energy_tol, momentum_tol, speed0_sum=None):
-    """Energy drift max|E - E0|/E0, momentum drift (relative to m sum|v0|), and pass/fail reasons."""
-    e = frames["e_trans"] + frames["e_rot"] + frames["e_elastic"]
+    """Energy drift max|E - E0|/E0, momentum drift (relative to m sum|v0|), and pass/fail reasons.
+    A dissipative run's frames hold ``e_dissipated``: E then counts it, so the check is the balance."""
+    e = frames["e_trans"] + frames["e_rot"] + frames["e_elastic"] + frames.get("e_dissipated", 0.0)
     e_drift = float(np.max(np.abs(e - e[0])) / e[0])
     if speed0_sum is None:
         speed0_sum = float(np.sum(np.linalg.norm(frames["vel"][0].astype(float), axis=1)))
@@ -89,7 +90,8 @@ def energy_series(frames, stride_s=ENERGY_STRIDE_S):
 def reduce_run(frames, run_input, cuts, max_lag_s, energy_tol, momentum_tol):
     """The reduced record of one run: ``frames`` is the YADE script's npz (dict-like),
     ``run_input`` the run file, ``cuts`` the analysis windows' start times (s)."""
-    fr = {k: np.asarray(frames[k]) for k in ("t", "disp", "vel", "e_trans", "e_rot", "e_elastic", "momentum")}
+    fr = {k: np.asarray(frames[k]) for k in ("t", "disp", "vel", "e_trans", "e_rot", "e_elastic", "momentum")
+          + (("e_dissipated",) if "e_dissipated" in frames else ())}
     v0 = np.asarray(run_input["initial"]["vel"], float)
     out = {"reduction_version": REDUCTION_VERSION,
            "checks": checks(fr, len(v0), run_input["body"]["mass"], energy_tol, momentum_tol,

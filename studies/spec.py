@@ -23,7 +23,7 @@ import tomllib
 import numpy as np
 
 from . import gas_model, shapes
-from .spec_checks import (SCHEDULES, YADE_VERSIONS, SpecError, check_analysis_window,  # noqa: F401
+from .spec_checks import (SCHEDULES, YADE_VERSIONS, SpecError, check_analysis_window, check_contact_route,  # noqa: F401
                           check_one_body, check_placement, check_table, check_value)
 
 # Bump when the physics of a run changes (what the YADE script builds, records or integrates,
@@ -42,7 +42,11 @@ SCHEMA = {
               "max_attempts": (int, False, 3, "pos"), "budget_cpu_hours": (_NUM, False, None, "pos"),
               "schedule": (str, False, "in_order", "schedule"), "in_results": (bool, False, True, None)},
     "material": {"density": (_NUM, True, None, "pos"), "youngs_modulus": (_NUM, True, None, "pos"),
-                 "poisson": (_NUM, True, None, "poisson")},
+                 "poisson": (_NUM, True, None, "poisson"),
+                 # dissipative and frictional contacts (optional; absent keys leave a run's key as it was)
+                 "restitution": (_NUM, False, None, "restitution"),
+                 "tangential_restitution": (_NUM, False, None, "restitution"),
+                 "friction": (_NUM, False, None, "nonneg")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
             "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start"),
             "spin_pairing": (str, False, "own", "spin_pairing")},
@@ -51,13 +55,17 @@ SCHEMA = {
     "run": {"t_end": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
             "dt_factor": (_NUM, False, 1.0, "pos"), "energy_tol": (_NUM, False, 1e-3, "pos"),
             "momentum_tol": (_NUM, False, 1e-9, "pos"), "progress_period": (_NUM, False, 20.0, "pos"),
-            "legacy_dt": (dict, False, None, None)},
+            "legacy_dt": (dict, False, None, None),
+            # the homogeneous cooling state: a run ends once T_tr has fallen by this factor (> 1)
+            "cooling_stop": (_NUM, False, None, "cooling_stop")},
     "analysis": {"t_eq": ((_NUM, str), False, "auto", "t_eq"), "fit_lo": (_NUM, False, None, "nonneg"),
                  "fit_hi": (_NUM, False, None, "pos"), "max_lag": (_NUM, False, None, "pos"),
                  "cuts": (list, False, [], None), "sensitivity": (list, False, [], None)},
     "spheres": {"diameter": ((_NUM, str), False, "equal_volume", "diameter"),
                 "mass": (str, False, "exact", "smass")},
 }
+# keys a spec may leave out without a default: absent, they are absent from the resolved spec too
+OPTIONAL_KEYS = {"material": ("restitution", "tangential_restitution", "friction"), "run": ("cooling_stop",)}
 SHAPE_KEYS = {"kind": (str, True, None, "kind"), "sphere_diameter": (_NUM, False, None, "pos"),
               "overlap": (_NUM, False, None, "pos"), "path": (str, False, None, None),
               "scale": (_NUM, False, 1.0, "pos")}
@@ -69,12 +77,16 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
               "dt_factor": (_NUM, False, None, "pos"), "start": (str, False, None, "start"),
               "energy_per_particle": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
               "n_particles": (int, False, None, "pos"),
+              "restitution": (_NUM, False, None, "restitution"),
+              "tangential_restitution": (_NUM, False, None, "restitution"),
+              "friction": (_NUM, False, None, "nonneg"), "cooling_stop": (_NUM, False, None, "cooling_stop"),
               "target": (dict, False, None, None), "max_seeds": (int, False, None, "pos")}
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
-             "start": "gas", "energy_per_particle": "gas", "n_particles": "gas"}
+             "start": "gas", "energy_per_particle": "gas", "n_particles": "gas", "restitution": "material",
+             "tangential_restitution": "material", "friction": "material", "cooling_stop": "run"}
 
 
 def analysis_windows(spec):
@@ -169,6 +181,10 @@ def _validate_group(where, g, spec):
         if gd["max_seeds"] is None:
             raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
     props = shapes.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
+    sph = dict(spec["spheres"], density=spec["material"]["density"])
+    mat = dict(spec["material"], **{k: gd[k] for k in OPTIONAL_KEYS["material"] if gd[k] is not None})
+    check_contact_route(f"{where}.cases", mat,
+                        {c: gas_model.resolve_case(props, c, sph) for c in gd["cases"]})
     if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
         raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
                         f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
@@ -187,6 +203,10 @@ def validate(raw):
         if t not in raw and t not in ("spheres", "run", "analysis"):
             raise SpecError(f"{t}: missing table")
         spec[t] = check_table(t, raw.get(t, {}), keys)
+    for t, keys in OPTIONAL_KEYS.items():          # absent optional keys stay absent (run keys unchanged)
+        for k in keys:
+            if spec[t][k] is None:
+                del spec[t][k]
     if spec["run"]["legacy_dt"] is not None:
         spec["run"]["legacy_dt"] = check_table("run.legacy_dt", spec["run"]["legacy_dt"], LEGACY_DT_KEYS)
     a = spec["analysis"]
@@ -286,11 +306,13 @@ def resolve_run(spec, g, case, seed):
         "clumpprops_version": clumpprops.__version__,
         "shape": {"members": np.round(props["members"], 15).tolist(), "radii": props["radii"],
                   "definition": shape},
-        "material": {k: float(v) for k, v in mat.items()},
+        "material": {k: float(v) for k, v in mat.items() if v is not None},
         "gas": {k: (float(v) if k not in ("n_particles", "start") else v) for k, v in gas.items()},
         "run": {k: float(run[k]) for k in ("t_end", "rec_interval", "dt_factor")},
         "case": case, "protocol": protocol, "seed": int(seed),
     }
+    if run.get("cooling_stop") is not None:
+        p["run"]["cooling_stop"] = float(run["cooling_stop"])
     if case == "spheres":
         p["spheres"] = {"diameter": spec["spheres"]["diameter"], "mass": spec["spheres"]["mass"]}
     if spin_pairing == "own" and spin_pairing_matters(p, cres, props["linear"]):
@@ -386,9 +408,12 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
         body["radius"] = cres["radius"]
     else:
         body.update(members=props["members"], radii=props["radii"])
-    return {"material": mat, "box_length": box, "dt": dt, "n_steps": n_steps, "rec_steps": rec_steps,
-            "rot_algorithm": "delValle2023", "body": body, "record": bool(record),
-            "progress_period": float(progress_period),
-            "initial": {"pos": pos.tolist(), "ori": ori.reshape(n, 9).tolist(), "vel": vel.tolist(),
-                        "angvel": angvel.tolist()},
-            "case": cres, "rot_dof": cres["rot_dof"], "exact_mass": ex["mass"]}
+    rin = {"material": mat, "box_length": box, "dt": dt, "n_steps": n_steps, "rec_steps": rec_steps,
+           "rot_algorithm": "delValle2023", "body": body, "record": bool(record),
+           "progress_period": float(progress_period),
+           "initial": {"pos": pos.tolist(), "ori": ori.reshape(n, 9).tolist(), "vel": vel.tolist(),
+                       "angvel": angvel.tolist()},
+           "case": cres, "rot_dof": cres["rot_dof"], "exact_mass": ex["mass"]}
+    if "cooling_stop" in run:
+        rin["cooling_stop"] = float(run["cooling_stop"])
+    return rin

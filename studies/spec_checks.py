@@ -55,6 +55,10 @@ def check_value(where, v, typ, check):
         raise SpecError(f"{where}: must be one of {', '.join(gas_model.STARTS)}, got {v!r}")
     if check == "protocol" and v not in gas_model.PROTOCOLS:
         raise SpecError(f"{where}: must be one of {', '.join(gas_model.PROTOCOLS)}, got {v!r}")
+    if check == "restitution" and num and not 0 < v <= 1:
+        raise SpecError(f"{where}: a coefficient of restitution must be in (0, 1], got {v!r}")
+    if check == "cooling_stop" and num and not v > 1:
+        raise SpecError(f"{where}: must be > 1 (the factor T_tr falls by before the run stops), got {v!r}")
     if check == "kind" and v not in shapes.KINDS:
         raise SpecError(f"{where}: must be one of {', '.join(shapes.KINDS)}, got {v!r}")
     if check == "schedule" and v not in SCHEDULES:
@@ -71,6 +75,19 @@ def check_value(where, v, typ, check):
             raise SpecError(f"{where}: must be a time in s or 'auto', got {v!r}")
         if num and not v >= 0:
             raise SpecError(f"{where}: must be >= 0, got {v!r}")
+
+
+def check_contact_route(where, mat, cases_resolved):
+    """Friction needs full rigid-body rotation for clumps: a tangential force exerts a torque about a
+    linear clump's axis, which the isotropic route (``aspherical = False``) does not integrate.
+    ``mat``: the group's material table; ``cases_resolved``: ``{case: resolve_case(...)}``."""
+    if not mat.get("friction"):
+        return
+    for case, cres in cases_resolved.items():
+        if cres["body"] == "clump" and cres["route"] == "isotropic":
+            raise SpecError(f"{where}: material.friction = {mat['friction']:g} with case {case!r} of a linear clump, "
+                            f"whose isotropic route is exact only without friction; use YADE 2025.2's aspherical "
+                            f"route (study.yade = '2025.2') or friction = 0")
 
 
 def _tname(typ):

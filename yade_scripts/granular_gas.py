@@ -51,7 +51,7 @@ import yade.config
 from yade import O, utils
 from yade.wrapper import (ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb, InteractionLoop,
                           Ig2_Sphere_Sphere_ScGeom, Ip2_FrictMat_FrictMat_MindlinPhys,
-                          Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator, PyRunner, FrictMat)
+                          Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator, PyRunner, FrictMat, MatchMaker)
 from yade.minieigenHP import Vector3, Quaternion, Matrix3
 
 import clumpprops
@@ -79,9 +79,28 @@ YADE_VERSION = yade.config.version
 O.reset()
 O.periodic = True
 O.cell.setBox(L, L, L)
-mat = O.materials.append(FrictMat(young=R["material"]["youngs_modulus"], poisson=R["material"]["poisson"],
-                                  density=R["material"]["density"], frictionAngle=0.0, label="grain"))
-law = Law2_ScGeom_MindlinPhys_Mindlin()
+MATERIAL = R["material"]
+RESTITUTION = float(MATERIAL.get("restitution", 1.0))
+FRICTION = float(MATERIAL.get("friction", 0.0))
+DISSIPATIVE = RESTITUTION < 1.0 or FRICTION > 0.0
+mat = O.materials.append(FrictMat(young=MATERIAL["youngs_modulus"], poisson=MATERIAL["poisson"],
+                                  density=MATERIAL["density"], frictionAngle=float(np.arctan(FRICTION)),
+                                  label="grain"))
+law = Law2_ScGeom_MindlinPhys_Mindlin(calcEnergy=DISSIPATIVE)
+
+
+def contact_physics():
+    """Hertz-Mindlin; with ``restitution`` < 1 YADE's ``en`` (and ``es``, the run file's
+    ``tangential_restitution``, else ``restitution``) set a viscous damping that gives that
+    restitution in a head-on collision (docs/hcs.md); without it, no damping."""
+    if RESTITUTION >= 1.0:
+        return Ip2_FrictMat_FrictMat_MindlinPhys()          # betan = betas = 0: no damping
+    es = float(MATERIAL.get("tangential_restitution", RESTITUTION))
+    return Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=RESTITUTION),
+                                             es=MatchMaker(algo="val", val=es))
+
+
+
 newton = NewtonIntegrator(damping=0.0, gravity=(0, 0, 0), exactAsphericalRot=(ROUTE == "aspherical"))
 ROT_ALGORITHM = "isotropic (aspherical=False)"
 if ROUTE == "aspherical":
@@ -96,7 +115,7 @@ O.engines = [
     ForceResetter(),
     COLLIDER,
     InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_MindlinPhys()],   # betan = betas = 0: no damping
+                    [contact_physics()],
                     [law]),                                 # frictionAngle 0: no tangential force
     newton,
 ]
@@ -177,7 +196,7 @@ COM_OFFSET = np.array([tuple(b.state.pos) for b in parts]) - pos0
 
 O.dt = DT
 N_FRAMES = N_STEPS // N_REC + 1
-rec = {k: np.zeros(N_FRAMES) for k in ("t", "e_trans", "e_rot", "e_elastic")}
+rec = {k: np.zeros(N_FRAMES) for k in ("t", "e_trans", "e_rot", "e_elastic", "e_dissipated")}
 rec["momentum"] = np.zeros((N_FRAMES, 3))
 disp = np.zeros((N_FRAMES, N, 3), np.float32)
 velrec = np.zeros((N_FRAMES, N, 3), np.float32)
@@ -231,14 +250,26 @@ def snapshot(t):
         rec["e_rot"][k] = 0.5 * MOMENTS[0] * np.sum(w ** 2)
     # the law's scene pointer is null before the first step; the initial state has no contact
     rec["e_elastic"][k] = law.normElastEnergy() if O.iter > 0 else 0.0
+    if DISSIPATIVE and O.iter > 0:
+        # the law's energy terms (calcEnergy): tangential elastic energy, and the energy that
+        # sliding and the normal and tangential dampers have taken out of the gas since t = 0
+        rec["e_elastic"][k] += float(law.shearEnergy)
+        rec["e_dissipated"][k] = float(law.frictionDissipation + law.normDampDissip + law.shearDampDissip)
     rec["momentum"][k] = MASS * v.sum(axis=0)
     disp[k] = p - P0
     velrec[k] = v
     frame[0] = k + 1
 
 
+# the homogeneous cooling state: stop once T_tr (so E_trans) has fallen by this factor
+COOLING_STOP = float(R.get("cooling_stop", 0.0))
+
+
 def record():
     snapshot((O.iter + 1) * DT)       # PyRunner after the integrator: state of time (iter + 1) dt
+    k = frame[0] - 1
+    if COOLING_STOP and rec["e_trans"][k] * COOLING_STOP <= rec["e_trans"][0]:
+        O.pause()
 
 
 PROG = {"wall": time.time(), "iter": 0}
@@ -272,16 +303,25 @@ facts = {
     "python": sys.version.split()[0],
     "numpy": np.__version__,
     "n_particles": N, "dt": DT, "n_steps": N_STEPS, "rec_steps": N_REC,
-    "wall_setup_s": setup_s, "wall_run_s": run_s, "steps_per_s": N_STEPS / max(run_s, 1e-9),
+    "wall_setup_s": setup_s, "wall_run_s": run_s, "steps_per_s": O.iter / max(run_s, 1e-9),
     "builder": body["builder"], "route": ROUTE,
     "body_mass": float(parts[0].state.mass), "body_inertia": [float(x) for x in parts[0].state.inertia],
     "com_offset_max": float(np.max(np.abs(COM_OFFSET))),
     "n_bodies": len(O.bodies),
     "verlet_dist": VERLET_DIST,
 }
+if DISSIPATIVE:
+    # energy is not conserved: the checks test the balance E_trans + E_rot + E_elastic + E_dissipated
+    facts.update(restitution=RESTITUTION, friction=FRICTION, energy_check="balance",
+                 e_dissipated=float(rec["e_dissipated"][frame[0] - 1]) if RECORD else None)
 if RECORD:
-    if frame[0] != N_FRAMES:
+    facts["cooling_stopped"] = bool(COOLING_STOP and frame[0] < N_FRAMES)
+    facts["steps_done"] = int(O.iter)
+    if frame[0] != N_FRAMES and not facts["cooling_stopped"]:
         raise RuntimeError(f"recorded {frame[0]} frames, expected {N_FRAMES}")
+    for key in rec:
+        rec[key] = rec[key][:frame[0]]
+    disp, velrec = disp[:frame[0]], velrec[:frame[0]]
     w = np.array([tuple(b.state.angVel) for b in parts])
     if ROUTE == "isotropic" and len(RADII) >= 2:
         # axial spin of linear clumps must stay at round-off (the isotropic route's premise)
@@ -295,7 +335,8 @@ if RECORD:
     facts["angvel_rms"] = float(np.sqrt(np.mean(np.sum(w ** 2, axis=1))))
     tmp = P.out + ".tmp.npz"
     np.savez(tmp, t=rec["t"], pos0=P0, disp=disp, vel=velrec, e_trans=rec["e_trans"], e_rot=rec["e_rot"],
-             e_elastic=rec["e_elastic"], momentum=rec["momentum"])
+             e_elastic=rec["e_elastic"], momentum=rec["momentum"],
+             **({"e_dissipated": rec["e_dissipated"]} if DISSIPATIVE else {}))
     os.replace(tmp, P.out + ".npz")
 tmp = P.out + ".tmp.json"
 with open(tmp, "w") as f:

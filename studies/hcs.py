@@ -1,0 +1,338 @@
+"""The homogeneous cooling state (HCS) of one run: temperatures, Haff's law, T_rot/T_tr, scaled MSD, homogeneity.
+
+A dissipative run (``[material] restitution < 1`` or ``friction > 0``) starts from an equilibrated
+elastic state (``gas.start = "equipartition"``) and cools from t = 0.  From its recorded frames
+(``yade_scripts/granular_gas.py``'s npz) and its run file this module gives:
+
+* :func:`temperatures`: per-particle temperatures in joules (Boltzmann's k = 1, the convention of
+  :mod:`studies.hcs_theory`, T = m <v_x^2>): T_tr = 2 E_tr / (3 N), T_rot = 2 E_rot / (f_rot N), with
+  f_rot the rotational degrees of freedom (:func:`rotational_dof`): 3 for spheres and aspherical
+  clumps, 2 for linear clumps on the isotropic route (no spin about the axis).
+* :func:`fit_haff`: T0 and tau0 of Haff's law T(t) = T0 / (1 + t / tau0)^2 by least squares on ln T
+  over a window; the cooling rate at T0 is zeta0 = 2 / tau0 (zeta = -d ln T / dt, as in
+  :func:`studies.hcs_theory.haff_cooling_rate`).
+* :func:`temperature_ratio`: the HCS ratio T_rot / T_tr averaged over a window after its transient.
+* :func:`fit_scaled_msd`: D0 from the MSD against the scaled time s = ln(1 + t / tau0), whose slope
+  is 6 D0 tau0 in the HCS (Brilliantov and Poeschel 2000, :func:`studies.hcs_theory.hcs_msd`).
+* :func:`count_variance_ratio` and :func:`homogeneous_until`: the variance of particle counts in
+  sub-cells over the binomial variance of a homogeneous gas, per frame, and the time it first rises
+  above its sampling noise (the analysed window ends there: clusters have formed).
+* :func:`haff_theory`: tau0 and zeta0 from kinetic theory for a sphere gas (Enskog frequency with
+  the Carnahan-Starling contact value, Sonine-corrected Haff rate).
+
+SI units throughout (m, kg, s, J).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import optimize
+
+from . import hcs_theory
+
+__all__ = ["rotational_dof", "temperatures", "fit_haff", "temperature_ratio", "scaled_time", "msd_from_start",
+           "fit_scaled_msd", "count_variance_ratio", "homogeneous_until", "haff_theory", "analyse"]
+
+
+def rotational_dof(run_input):
+    """Rotational degrees of freedom f_rot of a run's particles.
+
+    Parameters
+    ----------
+    run_input : dict
+        The run file (:func:`studies.spec.run_input`).
+
+    Returns
+    -------
+    int
+        3 for spheres and aspherical clumps, 2 for linear clumps on the isotropic route.
+    """
+    body = run_input["body"]
+    if body["builder"] == "sphere" or body["route"] == "aspherical":
+        return 3
+    return 2
+
+
+def temperatures(e_trans, e_rot, n_particles, rot_dof):
+    """Per-particle translational and rotational temperatures (J).
+
+    Parameters
+    ----------
+    e_trans, e_rot : array_like
+        Translational and rotational kinetic energy of the whole gas per frame (J).
+    n_particles : int
+        Number of particles N.
+    rot_dof : int
+        Rotational degrees of freedom f_rot of one particle.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        T_tr = 2 E_tr / (3 N) and T_rot = 2 E_rot / (f_rot N).
+    """
+    if n_particles < 1 or rot_dof not in (2, 3):
+        raise ValueError(f"need n_particles >= 1 and rot_dof 2 or 3, got {n_particles}, {rot_dof}")
+    t_tr = 2.0 * np.asarray(e_trans, float) / (3.0 * n_particles)
+    t_rot = 2.0 * np.asarray(e_rot, float) / (rot_dof * n_particles)
+    return t_tr, t_rot
+
+
+def _window(t, t_lo, t_hi):
+    t = np.asarray(t, float)
+    hi = t[-1] if t_hi is None else t_hi
+    sel = (t >= t_lo - 1e-12) & (t <= hi + 1e-12)
+    if sel.sum() < 4:
+        raise ValueError(f"the window [{t_lo:g}, {hi:g}] s holds {int(sel.sum())} frames; need >= 4")
+    return sel
+
+
+def fit_haff(t, temperature, t_lo=0.0, t_hi=None):
+    """Fit Haff's law T(t) = T0 / (1 + t / tau0)^2 to a cooling curve.
+
+    The fit is least squares on ln T (every frame weighs the same relative error), time measured
+    from the start of the cooling.
+
+    Parameters
+    ----------
+    t : array_like
+        Times of the frames (s), 0 at the start of the cooling.
+    temperature : array_like
+        T_tr per frame (J).
+    t_lo, t_hi : float, optional
+        The window fitted (s); ``t_hi`` None: to the last frame.
+
+    Returns
+    -------
+    dict
+        ``t0`` (J), ``tau0`` (s), ``zeta0`` = 2 / tau0 (1/s), their standard errors ``t0_se``,
+        ``tau0_se``, ``zeta0_se``, and ``rms_log`` the rms residual of ln T.
+
+    Raises
+    ------
+    ValueError
+        If the window holds fewer than 4 frames or a temperature is not positive.
+    """
+    t, temp = np.asarray(t, float), np.asarray(temperature, float)
+    sel = _window(t, t_lo, t_hi)
+    ts, ys = t[sel], temp[sel]
+    if np.any(ys <= 0):
+        raise ValueError("temperatures must be > 0")
+    ly = np.log(ys)
+    # first guess from the two ends: T^-1/2 is linear in t under Haff's law
+    q = ys ** -0.5
+    slope, icpt = np.polyfit(ts, q, 1)
+    tau_guess = icpt / slope if slope > 0 else 10.0 * (ts[-1] - ts[0] + 1.0)
+
+    def model(x, log_t0, log_tau0):
+        return log_t0 - 2.0 * np.log1p(x / math.exp(log_tau0))
+
+    p0 = (math.log(icpt ** -2) if icpt > 0 else ly[0], math.log(max(tau_guess, 1e-9)))
+    par, cov = optimize.curve_fit(model, ts, ly, p0=p0, maxfev=10000)
+    t0, tau0 = math.exp(par[0]), math.exp(par[1])
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    resid = ly - model(ts, *par)
+    return {"t0": t0, "tau0": tau0, "zeta0": 2.0 / tau0, "t0_se": t0 * float(se[0]),
+            "tau0_se": tau0 * float(se[1]), "zeta0_se": 2.0 / tau0 * float(se[1]),
+            "rms_log": float(np.sqrt(np.mean(resid ** 2)))}
+
+
+def temperature_ratio(t, t_tr, t_rot, t_lo, t_hi=None, n_blocks=8):
+    """The HCS ratio T_rot / T_tr averaged over a window after its transient.
+
+    Parameters
+    ----------
+    t, t_tr, t_rot : array_like
+        Times (s) and temperatures (J) per frame.
+    t_lo, t_hi : float
+        The window (s): ``t_lo`` after the transient; ``t_hi`` None: to the last frame.
+    n_blocks : int, optional
+        Consecutive blocks whose means give the standard error (frames are correlated).
+
+    Returns
+    -------
+    dict
+        ``ratio`` (the mean of T_rot / T_tr per frame), ``se`` (block standard error), ``n_frames``.
+    """
+    sel = _window(t, t_lo, t_hi)
+    r = np.asarray(t_rot, float)[sel] / np.asarray(t_tr, float)[sel]
+    nb = max(2, min(n_blocks, len(r) // 2))
+    blocks = np.array([b.mean() for b in np.array_split(r, nb)])
+    return {"ratio": float(r.mean()), "se": float(blocks.std(ddof=1) / math.sqrt(nb)), "n_frames": int(len(r))}
+
+
+def scaled_time(t, tau0):
+    """Brilliantov and Poeschel's scaled time s = ln(1 + t / tau0) (dimensionless)."""
+    return np.log1p(np.asarray(t, float) / tau0)
+
+
+def msd_from_start(disp):
+    """Mean-square displacement from the first frame, averaged over particles.
+
+    Parameters
+    ----------
+    disp : array_like, shape (n_frames, N, 3)
+        Unwrapped displacements of every particle (m).
+
+    Returns
+    -------
+    numpy.ndarray
+        MSD per frame (m^2).
+    """
+    d = np.asarray(disp, float)
+    return np.mean(np.sum((d - d[0]) ** 2, axis=2), axis=1)
+
+
+def fit_scaled_msd(t, msd, tau0, t_lo=0.0, t_hi=None):
+    """D0, the HCS self-diffusion coefficient at T0, from the MSD against s = ln(1 + t / tau0).
+
+    In the HCS MSD = 6 D0 tau0 s once the ballistic start is over; a straight line a + b s fitted
+    over the window gives D0 = b / (6 tau0) (the intercept takes the ballistic offset).
+
+    Parameters
+    ----------
+    t, msd : array_like
+        Times (s) and MSD (m^2) per frame.
+    tau0 : float
+        Haff's time (s), from :func:`fit_haff`.
+    t_lo, t_hi : float, optional
+        The window (s).
+
+    Returns
+    -------
+    dict
+        ``d0`` (m^2/s), ``d0_se`` (the slope's OLS standard error, an underestimate for correlated
+        frames), ``intercept`` (m^2).
+    """
+    sel = _window(t, t_lo, t_hi)
+    s, y = scaled_time(np.asarray(t, float)[sel], tau0), np.asarray(msd, float)[sel]
+    (b, a), cov = np.polyfit(s, y, 1, cov=True)
+    return {"d0": float(b / (6.0 * tau0)), "d0_se": float(math.sqrt(max(cov[0, 0], 0.0)) / (6.0 * tau0)),
+            "intercept": float(a)}
+
+
+def count_variance_ratio(pos, box, cells_per_side):
+    """Variance of particle counts in sub-cells over that of a homogeneous (binomial) gas.
+
+    Parameters
+    ----------
+    pos : array_like, shape (N, 3) or (n_frames, N, 3)
+        Positions (m); wrapped into the periodic box here.
+    box : float
+        Edge of the cubic periodic box (m).
+    cells_per_side : int
+        The box is cut into cells_per_side^3 cubic cells.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Var(counts) / (N p (1 - p)), p = 1 / cells_per_side^3: about 1 for a homogeneous gas
+        (sampling noise sqrt(2 / (M - 1)) for M cells), above it where particles cluster.
+    """
+    p = np.asarray(pos, float)
+    single = p.ndim == 2
+    p = p[None] if single else p
+    m = int(cells_per_side)
+    idx = np.floor(np.mod(p, box) / box * m).astype(int) % m
+    flat = (idx[..., 0] * m + idx[..., 1]) * m + idx[..., 2]
+    n = p.shape[1]
+    prob = 1.0 / m ** 3
+    out = np.array([np.bincount(f, minlength=m ** 3).var() for f in flat]) / (n * prob * (1 - prob))
+    return float(out[0]) if single else out
+
+
+def homogeneous_until(t, ratio, n_cells, z=3.0, n_consecutive=3):
+    """The time the gas stops being homogeneous: the count-variance ratio leaves its noise band.
+
+    Parameters
+    ----------
+    t, ratio : array_like
+        Times (s) and :func:`count_variance_ratio` per frame.
+    n_cells : int
+        Number of cells M the ratio was computed with.
+    z : float, optional
+        Band half-width in standard deviations of the ratio of a homogeneous gas, sqrt(2 / (M - 1)).
+    n_consecutive : int, optional
+        Frames in a row above the band that count as clustering (one noisy frame does not).
+
+    Returns
+    -------
+    float
+        The time of the first of ``n_consecutive`` frames above 1 + z sqrt(2 / (M - 1)); the last
+        frame's time if the gas stays homogeneous.
+    """
+    t, r = np.asarray(t, float), np.asarray(ratio, float)
+    limit = 1.0 + z * math.sqrt(2.0 / (n_cells - 1))
+    above = r > limit
+    run = 0
+    for k, a in enumerate(above):
+        run = run + 1 if a else 0
+        if run >= n_consecutive:
+            return float(t[k - n_consecutive + 1])
+    return float(t[-1])
+
+
+def haff_theory(n_particles, box, diameter, mass, t0, restitution):
+    """Haff's tau0 and zeta0 of smooth inelastic spheres from kinetic theory (:mod:`studies.hcs_theory`).
+
+    Parameters
+    ----------
+    n_particles : int
+        Number of spheres.
+    box : float
+        Edge of the cubic periodic box (m).
+    diameter, mass : float
+        The spheres' diameter (m) and mass (kg).
+    t0 : float
+        Initial translational temperature (J).
+    restitution : float
+        Normal coefficient of restitution e.
+
+    Returns
+    -------
+    dict
+        ``zeta0`` (1/s, with the Sonine correction), ``tau0`` = 2 / zeta0 (s), ``omega0`` (the Enskog
+        collision frequency at T0, 1/s), ``chi`` (Carnahan-Starling contact value) and ``phi``.
+    """
+    n = n_particles / box ** 3
+    phi = n * math.pi / 6.0 * diameter ** 3
+    chi = (1.0 - phi / 2.0) / (1.0 - phi) ** 3
+    omega = float(hcs_theory.enskog_frequency(n, diameter, mass, t0, chi))
+    zeta = hcs_theory.haff_cooling_rate(restitution, omega)
+    return {"zeta0": zeta, "tau0": 2.0 / zeta, "omega0": omega, "chi": chi, "phi": phi}
+
+
+def analyse(frames, run_input, t_transient=0.0, cells_per_side=4):
+    """The HCS quantities of one run.
+
+    Parameters
+    ----------
+    frames : mapping
+        The run's recorded frames (``t``, ``disp``, ``e_trans``, ``e_rot``; ``pos0``).
+    run_input : dict
+        The run file.
+    t_transient : float, optional
+        Frames before it are left out of the T_rot / T_tr average (s).
+    cells_per_side : int, optional
+        Cells per box edge of the homogeneity check.
+
+    Returns
+    -------
+    dict
+        ``t_end_homogeneous`` (s, where the analysed window ends), ``haff`` (:func:`fit_haff` on
+        T_tr up to it), ``ratio`` (:func:`temperature_ratio`, None without rotation), ``msd``
+        (:func:`fit_scaled_msd`), ``rot_dof``.
+    """
+    t = np.asarray(frames["t"], float)
+    n = len(run_input["initial"]["pos"])
+    f_rot = rotational_dof(run_input)
+    t_tr, t_rot = temperatures(frames["e_trans"], frames["e_rot"], n, f_rot)
+    disp = np.asarray(frames["disp"], float)
+    pos = np.asarray(frames["pos0"], float)[None] + disp
+    ratio = count_variance_ratio(pos, float(run_input["box_length"]), cells_per_side)
+    t_hom = homogeneous_until(t, ratio, cells_per_side ** 3)
+    haff = fit_haff(t, t_tr, 0.0, t_hom)
+    rot = (temperature_ratio(t, t_tr, t_rot, t_transient, t_hom)
+           if np.max(frames["e_rot"]) > 1e-9 * frames["e_trans"][0] and t_transient < t_hom else None)
+    msd = fit_scaled_msd(t, msd_from_start(disp), haff["tau0"], min(t_transient, t[-4]), t_hom)
+    return {"t_end_homogeneous": t_hom, "haff": haff, "ratio": rot, "msd": msd, "rot_dof": f_rot}

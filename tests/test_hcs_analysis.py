@@ -1,0 +1,156 @@
+"""studies.hcs on synthetic data with known answers, and the spec keys of dissipative gases (no YADE)."""
+import copy
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from studies import hcs
+from studies import spec as S
+
+ROOT_SPEC = "studies/specs/hcs_test.toml"
+
+
+def test_temperatures_follow_the_degrees_of_freedom():
+    # 10 particles with 1.5 J translational each: T_tr = 1 J; 2 rotational dof with 1 J each: T_rot = 1 J
+    t_tr, t_rot = hcs.temperatures([15.0], [10.0], 10, 2)
+    assert t_tr[0] == pytest.approx(1.0) and t_rot[0] == pytest.approx(1.0)
+    _, t_rot3 = hcs.temperatures([15.0], [15.0], 10, 3)
+    assert t_rot3[0] == pytest.approx(1.0)
+    with pytest.raises(ValueError):
+        hcs.temperatures([1.0], [1.0], 10, 1)
+
+
+def test_rotational_dof_of_each_route():
+    assert hcs.rotational_dof({"body": {"builder": "sphere", "route": "isotropic"}}) == 3
+    assert hcs.rotational_dof({"body": {"builder": "clumpprops", "route": "aspherical"}}) == 3
+    assert hcs.rotational_dof({"body": {"builder": "appendClumped", "route": "isotropic"}}) == 2
+
+
+def test_haff_fit_recovers_a_noisy_cooling_curve():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 40.0, 400)
+    t0, tau0 = 2.5, 12.0
+    temp = t0 / (1 + t / tau0) ** 2 * np.exp(rng.normal(0.0, 0.01, t.size))     # 1 % noise per frame
+    fit = hcs.fit_haff(t, temp)
+    assert fit["tau0"] == pytest.approx(tau0, rel=0.01)
+    assert fit["t0"] == pytest.approx(t0, rel=0.005)
+    assert fit["zeta0"] == pytest.approx(2.0 / tau0, rel=0.01)
+    assert abs(fit["tau0"] - tau0) < 4 * fit["tau0_se"]
+    assert fit["rms_log"] == pytest.approx(0.01, rel=0.15)
+
+
+def test_haff_fit_window_leaves_out_a_late_deviation():
+    t = np.linspace(0.0, 30.0, 301)
+    temp = 1.0 / (1 + t / 5.0) ** 2
+    temp[t > 20] *= np.exp(-0.2 * (t[t > 20] - 20))        # clustering: faster cooling late
+    assert hcs.fit_haff(t, temp, 0.0, 20.0)["tau0"] == pytest.approx(5.0, rel=1e-6)
+    assert hcs.fit_haff(t, temp)["tau0"] < 4.9
+    with pytest.raises(ValueError):
+        hcs.fit_haff(t, temp, 29.95, 30.0)
+
+
+def test_temperature_ratio_after_its_transient():
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 50.0, 1001)
+    t_tr = 1.0 / (1 + t / 10.0) ** 2
+    ratio = 0.4 * (1 - np.exp(-t / 1.5)) * (1 + rng.normal(0.0, 0.02, t.size))
+    r = hcs.temperature_ratio(t, t_tr, ratio * t_tr, t_lo=10.0)
+    assert r["ratio"] == pytest.approx(0.4, abs=3 * r["se"] + 1e-4)
+    assert r["se"] < 0.002
+    assert hcs.temperature_ratio(t, t_tr, ratio * t_tr, t_lo=0.0)["ratio"] < 0.39     # the transient biases low
+
+
+def test_scaled_msd_gives_d0():
+    t = np.linspace(0.0, 60.0, 601)
+    d0, tau0 = 0.03, 8.0
+    msd = 6 * d0 * tau0 * np.log1p(t / tau0) - 0.05 + np.random.default_rng(1).normal(0, 1e-3, t.size)
+    fit = hcs.fit_scaled_msd(t, msd, tau0, t_lo=5.0)
+    assert fit["d0"] == pytest.approx(d0, rel=0.005)
+    assert fit["intercept"] == pytest.approx(-0.05, abs=2e-3)
+    # a linear MSD (elastic diffusion) read in the scaled time does not give a constant D0
+    lin = hcs.fit_scaled_msd(t, 6 * d0 * t, tau0, t_lo=5.0)
+    assert lin["d0"] > 1.5 * d0
+
+
+def test_msd_from_start():
+    disp = np.zeros((3, 2, 3))
+    disp[1, 0] = [1.0, 0, 0]
+    disp[2] = [[1.0, 1.0, 0], [0, 0, 2.0]]
+    assert hcs.msd_from_start(disp).tolist() == [0.0, 0.5, 3.0]
+
+
+def test_count_variance_ratio_uniform_vs_clustered():
+    rng = np.random.default_rng(7)
+    box, n = 10.0, 4000
+    uniform = rng.uniform(0, box, (n, 3))
+    r_uni = hcs.count_variance_ratio(uniform, box, 5)
+    assert abs(r_uni - 1.0) < 3 * math.sqrt(2 / (125 - 1))
+    centres = rng.uniform(0, box, (20, 3))
+    clustered = centres[rng.integers(0, 20, n)] + rng.normal(0, 0.3, (n, 3))    # wrapped inside
+    assert hcs.count_variance_ratio(clustered, box, 5) > 5.0
+    both = hcs.count_variance_ratio(np.stack([uniform, clustered]), box, 5)
+    assert both.shape == (2,) and both[0] == pytest.approx(r_uni)
+
+
+def test_homogeneous_until_marks_the_onset_of_clustering():
+    rng = np.random.default_rng(2)
+    m = 64
+    t = np.arange(100, dtype=float)
+    ratio = 1 + rng.normal(0, math.sqrt(2 / (m - 1)), t.size)
+    ratio[60:] += np.linspace(0, 5, 40)
+    t_end = hcs.homogeneous_until(t, ratio, m)
+    assert 60 <= t_end <= 75
+    assert hcs.homogeneous_until(t[:55], ratio[:55], m) == 54.0
+
+
+def test_haff_theory_dilute_limit():
+    # phi -> 0: chi -> 1; zeta = (1 - e^2)/3 omega (1 + 3 a2/16) with omega = 4 sqrt(pi) n sigma^2 sqrt(T/m)
+    th = hcs.haff_theory(100, 1000.0, 0.2, 1.0, 4.0, 0.9)
+    omega = 4 * math.sqrt(math.pi) * 100 / 1e9 * 0.04 * 2.0
+    assert th["omega0"] == pytest.approx(omega, rel=1e-6)
+    assert th["zeta0"] == pytest.approx(0.19 / 3 * omega, rel=0.005)
+    assert th["tau0"] == pytest.approx(2 / th["zeta0"])
+
+
+def _raw():
+    with open(ROOT_SPEC, "rb") as f:
+        return tomllib.load(f)
+
+
+def test_spec_checks_of_the_contact_keys():
+    for table, key, bad in (("material", "restitution", 1.2), ("material", "restitution", 0.0),
+                            ("material", "tangential_restitution", -0.1), ("material", "friction", -0.5),
+                            ("run", "cooling_stop", 1.0)):
+        raw = _raw()
+        raw[table][key] = bad
+        with pytest.raises(S.SpecError, match=f"{table}.{key}"):
+            S.validate(raw)
+
+
+def test_friction_is_refused_on_the_isotropic_route():
+    raw = _raw()
+    raw["groups"][1]["cases"] = ["spheres", "exact"]            # the dimer: a linear clump, isotropic route
+    with pytest.raises(S.SpecError, match="aspherical"):
+        S.validate(raw)
+    raw["groups"][1]["friction"] = 0.0
+    S.validate(raw)
+
+
+def test_contact_keys_reach_the_run_file_only_when_given():
+    spec = S.validate(_raw())
+    smooth, rough = [r["params"] for r in S.runs(spec)]
+    assert smooth["material"]["restitution"] == 0.9 and "friction" not in smooth["material"]
+    assert rough["material"]["friction"] == 0.5
+    assert smooth["run"]["cooling_stop"] == 4.0
+    rin = S.run_input(smooth)
+    assert rin["material"]["restitution"] == 0.9 and rin["cooling_stop"] == 4.0
+    elastic = copy.deepcopy(_raw())
+    del elastic["material"]["restitution"], elastic["run"]["cooling_stop"], elastic["groups"][1]["friction"]
+    spec = S.validate(elastic)
+    for r in S.runs(spec):
+        assert set(r["params"]["material"]) == {"density", "youngs_modulus", "poisson"}
+        assert set(r["params"]["run"]) == {"t_end", "rec_interval", "dt_factor"}
+        assert "cooling_stop" not in S.run_input(r["params"])
+    assert set(spec["material"]) == {"density", "youngs_modulus", "poisson"}

@@ -1,0 +1,60 @@
+"""studies.hcs_validation on synthetic runs whose answer is known (no YADE)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from studies import hcs_validation as V
+
+N, BOX, SIGMA, MASS = 200, 8.0, 0.2, 5.0
+
+
+def _run_file(e, mu):
+    return {"initial": {"pos": [[0.0, 0.0, 0.0]] * N}, "box_length": BOX,
+            "body": {"builder": "sphere", "route": "isotropic", "radius": SIGMA / 2, "mass": MASS},
+            "material": {"restitution": e, **({"friction": mu} if mu else {})}}
+
+
+def _frames(rng, t0, tau0, d0, ratio=0.0):
+    t = np.linspace(0.0, 3 * tau0, 301)
+    temp = t0 / (1 + t / tau0) ** 2
+    msd = 6 * d0 * tau0 * np.log1p(t / tau0)
+    u = rng.normal(size=(N, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    return {"t": t, "e_trans": 1.5 * N * temp, "e_rot": 1.5 * N * ratio * temp,
+            "pos0": rng.uniform(0, BOX, (N, 3)), "disp": np.sqrt(msd)[:, None, None] * u[None]}
+
+
+def test_smooth_runs_that_follow_theory_agree_with_it(tmp_path):
+    rng = np.random.default_rng(4)
+    rin = _run_file(0.9, 0.0)
+    t0 = 2.0
+    th = V.smooth_theory({"e_trans": [1.5 * N * t0]}, rin)
+    for seed in range(3):
+        frames = _frames(rng, t0, 2 / th["zeta0"] * (1 + 0.01 * (seed - 1)), th["d0"])
+        np.savez(tmp_path / f"s{seed}.npz", **frames)
+        (tmp_path / f"s{seed}.run.json").write_text(json.dumps(rin))
+    rows = V.rows(V.load_raw(str(tmp_path)))
+    by = {r["observable"]: r for r in rows}
+    assert set(by) == {"cooling_rate", "diffusion"}
+    assert by["cooling_rate"]["ci_low"] <= th["zeta0"] <= by["cooling_rate"]["ci_high"]
+    assert by["cooling_rate"]["measured"] == pytest.approx(by["cooling_rate"]["theory"], rel=2e-3)
+    assert by["diffusion"]["measured"] == pytest.approx(th["d0"], rel=0.02)
+    assert set(rows[0]) == set(V.COLUMNS)
+
+
+def test_rough_runs_give_the_ratio_row():
+    rng = np.random.default_rng(5)
+    runs = [(_frames(rng, 2.0, 5.0, 0.1, ratio=0.45), _run_file(0.9, 0.5)) for _ in range(2)]
+    rows = V.rows(runs, ratio_theory=lambda e, mu: 0.5)
+    assert len(rows) == 1 and rows[0]["observable"] == "temperature_ratio"
+    assert rows[0]["measured"] == pytest.approx(0.45) and rows[0]["theory"] == 0.5
+    assert math.isnan(V.rows(runs)[0]["theory"])
+
+
+def test_clumps_are_refused():
+    rin = _run_file(0.9, 0.0)
+    rin["body"]["builder"] = "clumpprops"
+    with pytest.raises(ValueError, match="sphere"):
+        V.rows([(_frames(np.random.default_rng(1), 1.0, 5.0, 0.1), rin)])
