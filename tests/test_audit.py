@@ -149,3 +149,22 @@ def test_cli_missing_file_is_one_line_error(tmp_path, capsys):
     assert main([str(tmp_path / "nope.csv")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("clumpprops audit: error:")
+
+
+def test_the_compiled_hit_test_is_the_distance_test():
+    """The core's point-in-union loop against numpy's distances, on points spread over the box
+    and on points placed just inside and just outside single spheres."""
+    from clumpprops.core import _core
+    rng = np.random.default_rng(3)
+    c, r = rng.uniform(-1, 1, (12, 3)), rng.uniform(0.2, 0.5, 12)
+    x = rng.uniform(-1.6, 1.6, (20000, 3))
+    d = rng.normal(size=(2000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    k = rng.integers(0, 12, 2000)
+    edge = np.concatenate([c[k] + (1 - 1e-9) * r[k, None] * d, c[k] + (1 + 1e-9) * r[k, None] * d])
+    for pts in (x, edge):
+        want = (np.linalg.norm(pts[:, None, :] - c[None], axis=2) < r).any(axis=1)
+        assert np.array_equal(_core.union_hits(pts, c, r), want)
+    assert _core.union_hits(x, c, r).mean() > 0.05     # the test sees both answers
+    with pytest.raises(ValueError, match="union_hits"):
+        _core.union_hits(x[:, :2].copy(), c, r)

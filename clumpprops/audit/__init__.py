@@ -29,7 +29,7 @@ def _row(est, exact):
 def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[float] = (0.01, 0.001),
                 seed: Optional[int] = None, ntry: int = methods.LIGGGHTS_NTRY,
                 discretization: int = methods.YADE_DISCRETIZATION, qmc_points: int = methods.QMC_POINTS,
-                stated=None, max_voxels: int = 4_000_000) -> dict:
+                stated=None, max_voxels: int = 4_000_000, confirm: bool = False) -> dict:
     """Every method's values for one clump and the setting each sampled method needs.
 
     Parameters
@@ -50,6 +50,9 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
         Values a file states for this clump.
     max_voxels : int, optional
         The largest voxel grid tried for a recommendation.
+    confirm : bool, optional
+        Measure the quasi-Monte Carlo error at each recommended N too (see
+        :func:`clumpprops.audit.advice.qmc`); slow for small tolerances.
 
     Returns
     -------
@@ -69,7 +72,7 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
             methods.halton_qmc(c, r, density, qmc_points, seed=seeds[1])]
     bias = float(np.max(np.abs(np.linalg.eigvalsh(methods.with_iyz_defect(exact).extra["inertia"]) / exact.moments - 1)))
     vox_adv, vox_curve = advice.voxel(c, r, density, exact, tolerances, max_voxels)
-    qmc_adv, qmc_curve = advice.qmc(c, r, density, exact, tolerances, seed=seeds[2])
+    qmc_adv, qmc_curve = advice.qmc(c, r, density, exact, tolerances, seed=seeds[2], confirm=confirm)
     frame = float(np.max(np.abs(np.sort(np.diag(exact.extra["inertia"])) / exact.moments - 1.0)))
     for a in qmc_adv:
         if frame > a.tolerance:

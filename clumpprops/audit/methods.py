@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import mass_properties
+from ..core import _core
 
 #: LIGGGHTS ``particletemplate/multisphere`` requires ``ntry`` (it has no default: "need 'ntry' to be
 #: defined"); 10^6 is the value its documentation's multisphere example uses.
@@ -74,9 +75,10 @@ def _box(centers, radii):
 
 
 def _hits(x, centers, radii):
-    """Points strictly inside some sphere: |x|^2 - 2 x.c < r^2 - |c|^2, one matrix product."""
-    lhs = (x * x).sum(axis=1)[:, None] - 2.0 * (x @ centers.T)
-    return (lhs < radii * radii - (centers * centers).sum(axis=1)).any(axis=1)
+    """Points strictly inside some sphere, |x - c|^2 < r^2 (the compiled core's loop, which stops
+    at the first sphere that holds the point)."""
+    return _core.union_hits(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(centers, dtype=float),
+                            np.ascontiguousarray(radii, dtype=float))
 
 
 def _centred(centers, radii):
