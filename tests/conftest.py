@@ -19,23 +19,27 @@ import _profiles
 _profiles.load()
 
 LIBRARY = {
-    "test_adversarial.py", "test_baselines.py", "test_batching.py", "test_cli.py", "test_core.py", "test_core_dense.py", "test_core_header.py",
+    "test_adversarial.py", "test_audit.py", "test_audit_stated.py", "test_baselines.py", "test_batching.py", "test_cli.py", "test_core.py", "test_core_dense.py", "test_core_header.py",
     "test_exact.py", "test_exact_degenerate.py", "test_exact_reference.py", "test_export_safety.py", "test_fuzz_exact.py",
-    "test_invariance.py", "test_io.py", "test_io_fast.py", "test_packaging.py", "test_pairwise_physics.py", "test_pairwise_refusal.py",
-    "test_shape.py", "test_shape_cli.py", "test_validation.py",
+    "test_invariance.py", "test_io.py", "test_io_fast.py", "test_mesh.py", "test_packaging.py", "test_pairwise_physics.py", "test_pairwise_refusal.py",
+    "test_shape.py", "test_shape_cli.py", "test_show.py", "test_validation.py",
     "test_value_object.py",
+    "test_io_formats.py",
 }
 
 
 YADE = {
-    "test_baselines_yade.py", "test_debian13_unprivileged.py", "test_decks_yade.py", "test_engine_yade_export.py", "test_kinetic.py", "test_predict.py",
-    "test_study_analysis.py", "test_study_engine.py", "test_timestep.py", "test_yade_adapter.py", "test_yade_dynamics.py",
+    "test_baselines_yade.py", "test_debian13_unprivileged.py", "test_decks_yade.py", "test_engine_yade_export.py", "test_kinetic.py",
+    "test_hcs_yade.py", "test_study_analysis.py", "test_study_engine.py", "test_timestep.py", "test_yade_adapter.py", "test_yade_dynamics.py",
     "test_yade_executable.py", "test_yade_guards.py", "test_yade_lifecycle.py", "test_yade_registry.py",
+    "test_predict.py",
 }
 
 SLOW = {
-    "test_decks.py", "test_granular_gas_rigid.py", "test_gk_sensitivity.py", "test_kinetic.py", "test_predict.py", "test_report.py", "test_study_analysis.py",
+    "test_audit_liggghts.py", "test_decks.py", "test_granular_gas_rigid.py", "test_gk_sensitivity.py", "test_hcs_yade.py",
+    "test_kinetic.py", "test_report.py", "test_study_analysis.py",
     "test_study_engine.py", "test_sweep_script.py", "test_timestep.py", "test_yade_registry.py",
+    "test_predict.py",
 }
 
 MARKERS = {"library": LIBRARY, "yade": YADE, "slow": SLOW}
