@@ -22,6 +22,7 @@ The studies beside the gas sweeps, each with its own options (``python -m studie
     vacf-shape            the hard-sphere gas's VACF shape and the tail fit (results/estimator/)
     estimator-validation  the estimators on Ornstein-Uhlenbeck walkers with known D (results/estimator/)
     pair-correlation      the correlation over seeds of D in paired runs (printed; results/pairing/)
+    predict               each case's effect for a spec's shapes from binary collisions (results/predictions.csv)
 
 ``make science`` reruns those that write results (CPU-hours; docs/benchmarks.md lists them).
 """
@@ -46,7 +47,7 @@ def _spec_path(name):
 # python -m studies NAME ...: the module whose main(argv) runs study NAME
 STUDIES = {"timestep": ".timestep.study", "case-map": ".maps", "gk-sensitivity": ".gk_sensitivity",
            "gk-boltzmann": ".gk_boltzmann", "vacf-shape": ".vacf_shape",
-           "estimator-validation": ".estimator_validation", "pair-correlation": ".pair_correlation"}
+           "estimator-validation": ".estimator_validation", "pair-correlation": ".pair_correlation", "predict": ".predict"}
 
 
 def _sweep(a, spec):

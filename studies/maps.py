@@ -31,8 +31,8 @@ a factor that largely cancels in a ratio of two similar cases), and not a gas me
 gas study is the check.  Dimers run on YADE 2023.02a (isotropic route); the triangle trimer and
 the tetrahedron on YADE 2025.2 (delValle2023, scripts/debian13.sh; their ``mass_scaled`` clump is
 the exact build with mass and moments set to lambda times exact's).  A case's spins are
-exact's normal draws rescaled axis by axis, so the members' frame must be principal for both
-inertia tensors (checked; true for these symmetric shapes).
+exact's normal draws mapped to the case's inertia tensor (``spin_map``: axis by axis where both
+tensors are diagonal in the members' frame, as for these symmetric shapes).
 """
 from __future__ import annotations
 
@@ -73,18 +73,14 @@ def case_input(base, shape, case, protocol):
         cr = gm.resolve_case(props, case)
         i_body_c = np.asarray(props[gm.CASE_SOURCES[case][1]]["inertia"])   # "exact" or "sum"
     i_body_e = np.asarray(props["exact"]["inertia"])
-    for t in (i_body_e, i_body_c):   # make_pairs draws spins in the members' frame: it must be principal
-        if np.max(np.abs(t - np.diag(np.diag(t)))) > 1e-12 * np.max(np.abs(t)):
-            raise ValueError("case_map: the members' frame is not principal for this shape")
     m_e, m_c = ex["mass"], cr["mass"]
     if protocol == "paired":
         v_scale, kt_ratio = 1.0, m_c / m_e                 # kT_c / kT_e
     else:
         v_scale, kt_ratio = math.sqrt(m_e / m_c), 1.0
-    # spins at equipartition at kT_c with the case's moments, from exact's normal draws, axis by axis
-    w_scale = np.sqrt(kt_ratio * np.diag(i_body_e) / np.diag(i_body_c))
+    # spins at equipartition at kT_c with the case's inertia, from exact's normal draws
     ori = np.asarray(base["ori"]).reshape(-1, 3, 3)
-    wb = np.einsum("nji,nj->ni", ori, np.asarray(base["angvel"])) * w_scale
+    wb = np.einsum("nji,nj->ni", ori, np.asarray(base["angvel"])) @ spin_map(i_body_e, i_body_c, kt_ratio).T
     inp = dict(base)
     inp["body"] = {"builder": cr["builder"], "route": cr["route"], "mass": m_c, "moments": cr["moments"],
                    "members": props["members"], "radii": props["radii"]}
@@ -94,6 +90,38 @@ def case_input(base, shape, case, protocol):
     inp["angvel"] = np.einsum("nij,nj->ni", ori, wb).tolist()
     inp["kT"] = base["kT"] * kt_ratio
     return inp, kt_ratio * m_e / m_c
+
+
+def _sqrtm(t, power):
+    """A symmetric positive-definite matrix to the power ``power`` (eigen-decomposition)."""
+    w, v = np.linalg.eigh(t)
+    return (v * w ** power) @ v.T
+
+
+def spin_map(i_body_e, i_body_c, kt_ratio):
+    """The matrix that turns body-frame spins at equipartition with inertia tensor ``i_body_e`` into
+    spins at equipartition with ``i_body_c`` at ``kt_ratio`` times the temperature, draw by draw.
+
+    A spin drawn as w_e = sqrt(kT) I_e^(-1/2) z (z standard normal) becomes
+    w_c = sqrt(kt_ratio kT) I_c^(-1/2) z = M w_e with M = sqrt(kt_ratio) I_c^(-1/2) I_e^(1/2); for
+    tensors diagonal in the members' frame M scales axis by axis.
+
+    Parameters
+    ----------
+    i_body_e, i_body_c : array_like, shape (3, 3)
+        The exact and the case's inertia tensors in the members' frame (kg m^2).
+    kt_ratio : float
+        kT_case / kT_exact.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, 3)
+        M, applied as ``w_c = M @ w_e``.
+    """
+    i_e, i_c = np.asarray(i_body_e, float), np.asarray(i_body_c, float)
+    if all(np.max(np.abs(t - np.diag(np.diag(t)))) <= 1e-12 * np.max(np.abs(t)) for t in (i_e, i_c)):
+        return np.diag(np.sqrt(kt_ratio * np.diag(i_e) / np.diag(i_c)))
+    return math.sqrt(kt_ratio) * _sqrtm(i_c, -0.5) @ _sqrtm(i_e, 0.5)
 
 
 def relaxation_time_n(x, q, kT, m, area):

@@ -1,0 +1,83 @@
+"""``python -m studies predict SPEC`` (studies/predict.py): binary-collision predictions for a spec's
+shapes, against the committed collision map and with the issue's table columns.  Runs YADE."""
+import csv
+import json
+import os
+import re
+
+import pytest
+
+from studies import predict
+from studies.timestep import collisions as tc
+
+ROOT = tc.ROOT
+TEST_SPEC = os.path.join(ROOT, "studies", "specs", "test.toml")
+
+
+def _dimer025_spec(tmp_path, material_extra=""):
+    """The test spec with its dimer at D/d_s = 0.25 (a shape with a committed collision map and gas
+    interval), written to ``tmp_path``."""
+    with open(TEST_SPEC) as f:
+        text = f.read()
+    text = re.sub(r"^overlap = 0\.5 ", "overlap = 0.25", text, flags=re.M)
+    text = text.replace("[shapes.dimer]", "[shapes.dimer025]").replace('shape = "dimer"', 'shape = "dimer025"')
+    text = text.replace("poisson = 0.40\n", "poisson = 0.40\n" + material_extra, 1)
+    path = tmp_path / "tiny.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def _read(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], [dict(zip(rows[0], r)) for r in rows[1:]]
+
+
+def test_a_tiny_spec_runs_end_to_end_with_the_issues_columns(tmp_path):
+    out = tmp_path / "predictions.csv"
+    assert predict.main([_dimer025_spec(tmp_path), "--pairs", "40", "--workdir", str(tmp_path / "w"),
+                         "--out", str(out)]) == 0
+    header, rows = _read(out)
+    assert header == ["shape", "youngs_modulus", "restitution", "friction", "case", "observable", "predicted",
+                      "predicted_se", "cpu_s", "gas_relative", "gas_ci_low", "gas_ci_high"]
+    assert [r["case"] for r in rows] == ["uncorrected/paired", "mass_only/paired", "inertia_only/paired",
+                                         "uncorrected/equal_energy"]      # "spheres" is no clump case
+    assert all(r["shape"] == "dimer025" and r["observable"] == "diffusion" for r in rows)
+    assert all(float(r["cpu_s"]) > 0 and float(r["predicted_se"]) > 0 for r in rows)
+    eq = rows[3]                    # the committed dimer D/d_s = 0.25 gas interval, equal energy
+    assert float(eq["gas_ci_low"]) < float(eq["gas_relative"]) < float(eq["gas_ci_high"]) < 0
+    assert rows[1]["gas_relative"] == ""                                 # no gas run of mass_only there
+
+
+def test_the_dimer_reproduces_its_committed_collision_map_with_the_same_pairs_and_seed(tmp_path):
+    with open(os.path.join(ROOT, "results", "collision_map", "case_map_d0.25.json")) as f:
+        committed = json.load(f)
+    spec = _dimer025_spec(tmp_path)
+    text = open(spec).read().replace('"spheres", "mass_only", "inertia_only"', "")   # uncorrected only
+    text = text.replace('"uncorrected", ]', '"uncorrected"]')
+    open(spec, "w").write(text)
+    out = tmp_path / "p.csv"
+    assert predict.main([spec, "--pairs", str(committed["pairs"]), "--seed", str(committed["seed"]),
+                         "--factor", str(committed["dt_factor"]), "--workdir", str(tmp_path / "w"),
+                         "--out", str(out)]) == 0
+    _, rows = _read(out)
+    got = {r["case"]: float(r["predicted"]) for r in rows}
+    for ref in committed["rows"]:
+        key = f"{ref['case']}/{ref['protocol']}"
+        if key in got:
+            assert abs(got[key] - ref["relative"]) < ref["se"]
+    assert set(got) == {"uncorrected/paired", "uncorrected/equal_energy"}
+
+
+def test_an_inelastic_spec_stops_with_a_one_line_error(tmp_path, capsys):
+    spec = _dimer025_spec(tmp_path, material_extra="restitution = 0.9\n")
+    assert predict.main([spec, "--out", str(tmp_path / "p.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_a_missing_spec_stops_with_a_one_line_error(tmp_path, capsys):
+    assert predict.main([str(tmp_path / "none.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err
