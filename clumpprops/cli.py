@@ -54,6 +54,8 @@ SUBCOMMANDS = {
     "export": ("clumpprops.io.cli", "write the files LIGGGHTS, LAMMPS, DEM-Engine, MercuryDPM or YADE read, "
                "with the exact values"),
     "show": ("clumpprops.show", "draw a clump with its principal axes into a PNG file"),
+    "fit": ("clumpprops.fit", "fit a clump of N spheres to a closed triangle mesh (STL, OBJ, ...); writes 'x y z r', "
+            "prints its exact properties against the mesh's"),
 }
 
 
