@@ -3,7 +3,7 @@ far its exact mass properties are from the mesh's own.
 
 Usage (see ``docs/fit.md``)::
 
-    clumpprops fit MESH --spheres N [-o OUT.txt] [--force] [--density RHO]
+    clumpprops fit MESH --spheres N [-o OUT.txt] [--force] [--scale F] [--density RHO]
                         [--overlap F] [--divisions K] [--json]
 
 It reads MESH (any closed triangle mesh trimesh reads: STL, OBJ, PLY, OFF, ...), places the spheres
@@ -44,18 +44,20 @@ class FitError(Exception):
     """A user-facing error of ``clumpprops fit``: printed as one line, exit status 1."""
 
 
-def load_mesh(path: str):
+def load_mesh(path: str, scale: float = 1.0):
     """Read a closed triangle mesh.
 
     Parameters
     ----------
     path : str
-        A mesh file trimesh reads (STL, OBJ, PLY, OFF, ...), in m.
+        A mesh file trimesh reads (STL, OBJ, PLY, OFF, ...).
+    scale : float
+        Factor from the file's length unit to m (0.001 for a file in mm).
 
     Returns
     -------
     trimesh.Trimesh
-        The mesh, with outward normals.
+        The mesh in m, with outward normals.
 
     Raises
     ------
@@ -78,7 +80,7 @@ def load_mesh(path: str):
         raise FitError(f"{path} is not a closed surface (not watertight): it has no volume to fit")
     if mesh.volume < 0:
         mesh.invert()
-    return mesh
+    return mesh.apply_scale(scale) if scale != 1.0 else mesh
 
 
 class _Clearance:
@@ -158,7 +160,8 @@ def fit_spheres(mesh, n_spheres: int, overlap: float = DEFAULT_OVERLAP, division
     from scipy.ndimage import distance_transform_edt
 
     if not 0.0 <= overlap < 1.0 or n_spheres < 1 or divisions < 1:
-        raise ValueError(f"need 0 <= overlap < 1, n_spheres >= 1, divisions >= 1; got {overlap}, {n_spheres}, {divisions}")
+        raise ValueError(f"need 0 <= overlap < 1, n_spheres >= 1 and divisions >= 1; "
+                         f"got {overlap}, {n_spheres}, {divisions}")
     pitch = float(np.min(mesh.extents)) / divisions
     grid = mesh.voxelized(pitch=pitch, method="subdivide").fill()
     inside = np.pad(np.asarray(grid.matrix, dtype=bool), 1)
@@ -337,6 +340,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--spheres", type=_positive_int, required=True, metavar="N", help="number of spheres wanted")
     p.add_argument("-o", "--output", metavar="OUT", help="sphere file to write (default: MESH's name + .spheres.txt)")
     p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    p.add_argument("--scale", type=_positive_float, default=1.0, metavar="F",
+                   help="multiply the mesh's lengths by F to get m, e.g. 0.001 for a mesh in mm (default: 1)")
     p.add_argument("--density", type=_positive_float, default=DEFAULT_DENSITY, help="kg/m^3 (default: 1000)")
     p.add_argument("--overlap", type=float, default=DEFAULT_OVERLAP,
                    help=f"in [0, 1): each sphere covers (1 - overlap) of its radius (default: {DEFAULT_OVERLAP})")
@@ -360,7 +365,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if not 0.0 <= args.overlap < 1.0:
         parser.error(f"--overlap must be in [0, 1), got {args.overlap}")
     try:
-        mesh = load_mesh(args.mesh)
+        mesh = load_mesh(args.mesh, args.scale)
         out = _output_path(args)
         centers, radii = fit_spheres(mesh, args.spheres, args.overlap, args.divisions)
         if len(radii) == 0:

@@ -5,6 +5,7 @@ of the cone of each triangle from the origin), and the clump's from closed forms
 printed numbers are checked against routes that share nothing with trimesh or the compiled core."""
 import json
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -161,3 +162,29 @@ def test_bad_overlap_is_a_usage_error(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["fit", str(tmp_path / "x.stl"), "--spheres", "2", "--overlap", "1"])
     assert exc.value.code == 2
+
+
+def test_scale_turns_a_millimetre_mesh_into_metres(tmp_path, capsys):
+    metres = _fit_json(capsys, _write(_ellipsoid(), tmp_path / "m.stl"), 4, tmp_path / "m.txt")
+    mm = _ellipsoid().apply_scale(1000.0)
+    millimetres = _fit_json(capsys, _write(mm, tmp_path / "mm.stl"), 4, tmp_path / "mm.txt", "--scale", 0.001)
+    assert millimetres["mesh"]["volume_m3"] == pytest.approx(metres["mesh"]["volume_m3"], rel=1e-9)
+    assert millimetres["exact"]["I3_kgm2"] == pytest.approx(metres["exact"]["I3_kgm2"], rel=1e-6)
+    assert _spheres(tmp_path / "mm.txt")[1] == pytest.approx(_spheres(tmp_path / "m.txt")[1], rel=1e-6)
+
+
+def test_without_trimesh_the_error_says_what_to_install(tmp_path, monkeypatch):
+    from clumpprops import fit
+
+    monkeypatch.setitem(sys.modules, "trimesh", None)
+    with pytest.raises(fit.FitError, match=r"pip install clumpprops\[fit\]"):
+        fit.load_mesh(str(tmp_path / "grain.stl"))
+
+
+@pytest.mark.parametrize("kwargs", [{"n_spheres": 0}, {"n_spheres": 2, "overlap": 1.0},
+                                    {"n_spheres": 2, "divisions": 0}])
+def test_fit_spheres_refuses_bad_settings(kwargs):
+    from clumpprops import fit
+
+    with pytest.raises(ValueError, match="overlap"):
+        fit.fit_spheres(trimesh.creation.icosphere(subdivisions=1), **kwargs)
