@@ -4,14 +4,15 @@ far its exact mass properties are from the mesh's own.
 Usage (see ``docs/fit.md``)::
 
     clumpprops fit MESH --spheres N [-o OUT.txt] [--force] [--scale F] [--density RHO]
-                        [--overlap F] [--divisions K] [--json]
+                        [--generator euclidean|multisphere] [--overlap F] [--divisions K] [--json]
 
 It reads MESH (any closed triangle mesh trimesh reads: STL, OBJ, PLY, OFF, ...), places the spheres
 with CLUMP's Euclidean method (Angelidakis et al. 2021: the largest sphere that fits in the part of a
 voxelisation not yet covered, N times; each sphere removes the voxels within ``(1 - overlap) r`` of
 its centre), with each centre refined and each radius computed from exact distances to the mesh's
-triangles, writes the clump as ``x y z r`` lines to OUT (default: MESH with the suffix
-``.spheres.txt``; never over an existing file without ``--force``, never over MESH) and prints the
+triangles, or with the ``multisphere`` package's MSS method (``--generator multisphere``), writes
+the clump as ``x y z r`` lines to OUT (default: MESH with the suffix ``.spheres.txt``; never over
+an existing file without ``--force``, never over MESH) and prints the
 clump's exact properties (:func:`clumpprops.mass_properties`) against the mesh's (trimesh's
 ``mass_properties``) at the same density: volume, centre of mass, principal moments, the angle
 between principal axes, and the error the summed spheres (method ``"sum"``) add on top.
@@ -22,9 +23,12 @@ Errors (missing or unreadable mesh, a mesh that is not closed) print one line
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import os
 import sys
+import types
 from typing import Optional, Sequence
 
 import numpy as np
@@ -181,6 +185,57 @@ def fit_spheres(mesh, n_spheres: int, overlap: float = DEFAULT_OVERLAP, division
         clearance.add(center, radius)
         inside &= np.linalg.norm(points - center, axis=-1) > (1.0 - overlap) * radius
     return np.asarray(clearance.centers).reshape(-1, 3), np.asarray(clearance.radii)
+
+
+def multisphere_spheres(mesh, n_spheres: int, divisions: int = DEFAULT_DIVISIONS):
+    """Place up to ``n_spheres`` spheres in a closed mesh with the ``multisphere`` package (MSS).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        A watertight mesh (see :func:`load_mesh`), in m.
+    n_spheres : int
+        Largest number of spheres (``max_spheres``).
+    divisions : int
+        Voxels along the shortest edge of the mesh's bounding box (``div``).
+
+    Returns
+    -------
+    centers : ndarray, shape (M, 3)
+        Sphere centres in the mesh's frame, m.
+    radii : ndarray, shape (M,)
+        Sphere radii, m (multiples of the voxel size; a sphere may reach past the mesh).
+
+    Raises
+    ------
+    FitError
+        If ``multisphere`` is not installed.
+    """
+    mss = _import_multisphere()
+    with contextlib.redirect_stdout(io.StringIO()):  # it prints why it stopped
+        pack = mss.multisphere_from_mesh(mesh, div=divisions, max_spheres=n_spheres)
+    return np.asarray(pack.centers, dtype=float).reshape(-1, 3), np.asarray(pack.radii, dtype=float).reshape(-1)
+
+
+def _import_multisphere():
+    """``import multisphere``; its package imports PyVista for its plots only, so a placeholder
+    stands in for PyVista while it loads when PyVista is not installed (the plots are not used)."""
+    placeholder = None
+    try:
+        import pyvista  # noqa: F401
+    except ImportError:
+        placeholder = sys.modules["pyvista"] = types.ModuleType("pyvista")
+    try:
+        import multisphere
+    except ImportError:
+        raise FitError("--generator multisphere needs the multisphere package: pip install clumpprops[fit]") from None
+    finally:
+        if placeholder is not None and sys.modules.get("pyvista") is placeholder:
+            del sys.modules["pyvista"]
+    return multisphere
+
+
+GENERATORS = ("euclidean", "multisphere")
 
 
 def _principal(inertia):
@@ -343,8 +398,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", type=_positive_float, default=1.0, metavar="F",
                    help="multiply the mesh's lengths by F to get m, e.g. 0.001 for a mesh in mm (default: 1)")
     p.add_argument("--density", type=_positive_float, default=DEFAULT_DENSITY, help="kg/m^3 (default: 1000)")
+    p.add_argument("--generator", choices=GENERATORS, default="euclidean",
+                   help="euclidean: CLUMP's method with exact radii, spheres inside the mesh (default); "
+                        "multisphere: the multisphere package (MSS), fills the volume faster as N grows")
     p.add_argument("--overlap", type=float, default=DEFAULT_OVERLAP,
-                   help=f"in [0, 1): each sphere covers (1 - overlap) of its radius (default: {DEFAULT_OVERLAP})")
+                   help=f"euclidean only, in [0, 1): each sphere covers (1 - overlap) of its radius "
+                        f"(default: {DEFAULT_OVERLAP})")
     p.add_argument("--divisions", type=_positive_int, default=DEFAULT_DIVISIONS,
                    help=f"voxels along the shortest bounding-box edge, for seeding (default: {DEFAULT_DIVISIONS})")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
@@ -367,7 +426,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         mesh = load_mesh(args.mesh, args.scale)
         out = _output_path(args)
-        centers, radii = fit_spheres(mesh, args.spheres, args.overlap, args.divisions)
+        if args.generator == "multisphere":
+            centers, radii = multisphere_spheres(mesh, args.spheres, args.divisions)
+        else:
+            centers, radii = fit_spheres(mesh, args.spheres, args.overlap, args.divisions)
         if len(radii) == 0:
             raise FitError(f"{args.mesh}: no sphere fits at --divisions {args.divisions}; raise it")
         result = compare(mesh, centers, radii, args.density)

@@ -6,6 +6,7 @@ printed numbers are checked against routes that share nothing with trimesh or th
 import json
 import math
 import sys
+from importlib.util import find_spec
 
 import numpy as np
 import pytest
@@ -80,9 +81,16 @@ def test_one_sphere_in_an_icosphere_is_closer_than_the_icosphere_to_its_sphere(t
     assert doc["error_exact"]["axis_angle_deg"] == [None, None, None]  # a sphere has no principal axes
 
 
-def test_printed_numbers_equal_an_independent_computation(tmp_path, capsys):
+HAVE_MULTISPHERE = find_spec("multisphere") is not None
+NO_MULTISPHERE = pytest.mark.skipif(not HAVE_MULTISPHERE,
+                                    reason="multisphere not installed (pip install clumpprops[fit])")
+GENERATORS = ["euclidean", pytest.param("multisphere", marks=NO_MULTISPHERE)]
+
+
+@pytest.mark.parametrize("generator", GENERATORS)
+def test_printed_numbers_equal_an_independent_computation(tmp_path, capsys, generator):
     mesh_file = _write(_ellipsoid(), tmp_path / "ell.stl")
-    doc = _fit_json(capsys, mesh_file, 5, tmp_path / "ell.txt")
+    doc = _fit_json(capsys, mesh_file, 5, tmp_path / "ell.txt", "--generator", generator)
     volume, com, inertia = _tetra_moments(mesh_file)
     mesh_moments = np.linalg.eigvalsh(RHO * inertia)
     assert doc["mesh"]["volume_m3"] == pytest.approx(volume, rel=1e-12)
@@ -113,10 +121,11 @@ def test_the_table_prints_the_json_numbers(tmp_path, capsys):
     assert float(rows["mass_kg"][5]) == pytest.approx(100 * doc["sum_adds"]["mass_kg"], abs=1e-4)
 
 
-def test_errors_shrink_as_spheres_are_added(tmp_path, capsys):
+@pytest.mark.parametrize("generator", GENERATORS)
+def test_errors_shrink_as_spheres_are_added(tmp_path, capsys, generator):
     mesh_file = _write(_ellipsoid(), tmp_path / "ell.stl")
-    few = _fit_json(capsys, mesh_file, 5, tmp_path / "n5.txt")["error_exact"]
-    many = _fit_json(capsys, mesh_file, 20, tmp_path / "n20.txt")["error_exact"]
+    few = _fit_json(capsys, mesh_file, 5, tmp_path / "n5.txt", "--generator", generator)["error_exact"]
+    many = _fit_json(capsys, mesh_file, 20, tmp_path / "n20.txt", "--generator", generator)["error_exact"]
     for key in ("volume_m3", "I1_kgm2", "I2_kgm2", "I3_kgm2"):
         assert abs(many[key]) < abs(few[key]), key
     assert max(many["axis_angle_deg"]) < 2.0  # the ellipsoid's axes are distinct; the clump keeps them
@@ -188,3 +197,13 @@ def test_fit_spheres_refuses_bad_settings(kwargs):
 
     with pytest.raises(ValueError, match="overlap"):
         fit.fit_spheres(trimesh.creation.icosphere(subdivisions=1), **kwargs)
+
+
+@NO_MULTISPHERE
+def test_multisphere_leaves_no_placeholder_behind():
+    from clumpprops import fit
+
+    had_pyvista = "pyvista" in sys.modules
+    centers, radii = fit.multisphere_spheres(_ellipsoid(subdivisions=1), 3, divisions=20)
+    assert centers.shape == (len(radii), 3) and 1 <= len(radii) <= 3 and np.all(radii > 0)
+    assert ("pyvista" in sys.modules) == had_pyvista
