@@ -266,8 +266,10 @@ def compare(mesh, centers, radii, density: float) -> dict:
     Returns
     -------
     dict
-        ``"mesh"``, ``"exact"`` and ``"sum"``: each ``{"volume_m3", "mass_kg", "I1_kgm2", "I2_kgm2",
-        "I3_kgm2", "center_of_mass_m"}`` (principal moments ascending); ``"error_exact"`` and
+        ``"spheres"``: the number of spheres; ``"mesh"``, ``"exact"`` and ``"sum"``: each
+        ``{"volume_m3", "mass_kg", "I1_kgm2", "I2_kgm2", "I3_kgm2", "center_of_mass_m",
+        "principal_axes"}`` (moments ascending, about the centre of mass; the axes as the columns
+        of a (3, 3) array, in the same order); ``"error_exact"`` and
         ``"error_sum"``: relative errors against the mesh of the ``ROWS`` quantities, the centre of
         mass offset (m) and the principal-axis angles (degrees; None where the mesh's moment is
         repeated, so its axis is not defined); ``"sum_adds"``: the summed values
@@ -289,7 +291,7 @@ def _values(volume, mass, com, inertia):
     moments, axes = _principal(np.asarray(inertia, dtype=float))
     vals = {"volume_m3": float(volume), "mass_kg": float(mass), "center_of_mass_m": [float(c) for c in com]}
     vals.update({f"I{k + 1}_kgm2": float(m) for k, m in enumerate(moments)})
-    vals["_axes"] = axes
+    vals["principal_axes"] = axes
     return vals
 
 
@@ -303,7 +305,7 @@ def _errors(vals, ref):
     err = {k: vals[k] / ref[k] - 1.0 for k in ROWS}
     err["com_offset_m"] = float(np.linalg.norm(np.subtract(vals["center_of_mass_m"], ref["center_of_mass_m"])))
     moments = np.array([ref[f"I{k + 1}_kgm2"] for k in range(3)])
-    angles = _axis_angles_deg(vals["_axes"], ref["_axes"])
+    angles = _axis_angles_deg(vals["principal_axes"], ref["principal_axes"])
     err["axis_angle_deg"] = [float(a) if _distinct(moments, k) else None for k, a in enumerate(angles)]
     return err
 
@@ -345,8 +347,9 @@ def _angle(deg):
 
 
 def _public(result: dict) -> dict:
-    return {k: ({kk: vv for kk, vv in v.items() if kk != "_axes"} if isinstance(v, dict) else v)
-            for k, v in result.items()}
+    """``result`` with its arrays as lists, for JSON."""
+    return {k: ({kk: (vv.tolist() if isinstance(vv, np.ndarray) else vv) for kk, vv in v.items()}
+                if isinstance(v, dict) else v) for k, v in result.items()}
 
 
 def write_spheres(path: str, centers, radii, force: bool = False) -> None:

@@ -207,3 +207,17 @@ def test_multisphere_leaves_no_placeholder_behind():
     centers, radii = fit.multisphere_spheres(_ellipsoid(subdivisions=1), 3, divisions=20)
     assert centers.shape == (len(radii), 3) and 1 <= len(radii) <= 3 and np.all(radii > 0)
     assert ("pyvista" in sys.modules) == had_pyvista
+
+
+def test_principal_axes_follow_a_rotated_grain(tmp_path, capsys):
+    rotation = trimesh.transformations.rotation_matrix(0.7, [1.0, 2.0, 3.0])
+    mesh_file = _write(_ellipsoid().apply_transform(rotation), tmp_path / "turned.stl")
+    doc = _fit_json(capsys, mesh_file, 5, tmp_path / "turned.txt")
+    axes = np.asarray(doc["mesh"]["principal_axes"])
+    # I1 is about the longest semi-axis (x before the turn), I3 about the shortest (z)
+    assert np.abs(np.sum(axes * rotation[:3, :3], axis=0)) == pytest.approx(np.ones(3), abs=1e-3)
+    # the clump's own axes, from its written spheres' sum, point the same way
+    centers, radii = _spheres(tmp_path / "turned.txt")
+    sum_axes = np.linalg.eigh(_summed_spheres(centers, radii)[1])[1]
+    angles = np.degrees(np.arccos(np.clip(np.abs(np.sum(sum_axes * axes, axis=0)), 0, 1)))
+    assert doc["error_sum"]["axis_angle_deg"] == pytest.approx(angles, abs=1e-6)
