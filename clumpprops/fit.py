@@ -391,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``clumpprops fit``."""
     p = _Parser(prog=PROG, description=(
         "Fit a clump of about N spheres to a closed triangle mesh (CLUMP's Euclidean method with exact "
-        "distances), write it as 'x y z r' lines and print its exact mass properties against the mesh's "
+        "distances, or the multisphere package), write it as 'x y z r' lines and print its exact mass properties against the mesh's "
         "own at the same density, with the error the summed spheres add. Reads MESH (STL, OBJ, PLY, OFF; "
         "m); writes OUT only."))
     p.add_argument("mesh", metavar="MESH", help="closed (watertight) triangle mesh, lengths in m")
@@ -408,7 +408,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"euclidean only, in [0, 1): each sphere covers (1 - overlap) of its radius "
                         f"(default: {DEFAULT_OVERLAP})")
     p.add_argument("--divisions", type=_positive_int, default=DEFAULT_DIVISIONS,
-                   help=f"voxels along the shortest bounding-box edge, for seeding (default: {DEFAULT_DIVISIONS})")
+                   help=f"voxels along the mesh's shortest bounding-box edge (default: {DEFAULT_DIVISIONS})")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     return p
 

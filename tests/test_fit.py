@@ -214,7 +214,7 @@ def test_principal_axes_follow_a_rotated_grain(tmp_path, capsys):
     mesh_file = _write(_ellipsoid().apply_transform(rotation), tmp_path / "turned.stl")
     doc = _fit_json(capsys, mesh_file, 5, tmp_path / "turned.txt")
     axes = np.asarray(doc["mesh"]["principal_axes"])
-    # I1 is about the longest semi-axis (x before the turn), I3 about the shortest (z)
+    # I1 is about the longest semi-axis (the unrotated x), I3 about the shortest (the unrotated z)
     assert np.abs(np.sum(axes * rotation[:3, :3], axis=0)) == pytest.approx(np.ones(3), abs=1e-3)
     # the clump's own axes, from its written spheres' sum, point the same way
     centers, radii = _spheres(tmp_path / "turned.txt")
