@@ -56,6 +56,8 @@ SUBCOMMANDS = {
     "show": ("clumpprops.show", "draw a clump with its principal axes into a PNG file"),
     "audit": ("clumpprops.audit.cli", "compare each engine's own mass properties (sums, voxels, Monte Carlo, stated "
               "values) with the exact ones; samples or voxels needed for a tolerance"),
+    "fit": ("clumpprops.fit", "fit a clump of N spheres to a closed triangle mesh (STL, OBJ, ...); writes 'x y z r', "
+            "prints its exact properties against the mesh's"),
 }
 
 

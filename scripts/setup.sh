@@ -12,7 +12,8 @@
 #   make_venv        $VENV: a venv of /usr/bin/python3 that sees Debian's packages and can `import yade`
 #   build_core       the compiled core (C++17 + pybind11), in place
 #   install_package  clumpprops in editable mode into $VENV (console script `clumpprops`)
-#   pip_packages     manifold3d, meshio and trimesh from PyPI (the [mesh] extra: export --to stl/vtk)
+#   pip_packages     manifold3d, meshio, trimesh and multisphere from PyPI (the [mesh] and [fit] extras:
+#                    export --to stl/vtk, fit), with the installed numpy and SciPy kept
 #   report           one line: clumpprops, Python, numpy and the YADE version that was set up
 #
 # VENV (default .venv) is relative to the repository root.  The repository is bind-mounted into
@@ -83,14 +84,16 @@ install_package() {
 # the optional mesh and file libraries (extras [mesh]: export --to stl/vtk; docs/visualise.md), from PyPI.
 # meshio needs rich, which needs markdown-it-py >= 2.2: keep it within the major version Debian
 # ships, so that Debian's myst-parser (the docs) still accepts it.
-PIP_PKGS="manifold3d meshio trimesh"
+PIP_PKGS="manifold3d meshio trimesh multisphere"
 
 pip_packages() {
-  "$PY" -c 'import manifold3d, meshio, trimesh' 2>/dev/null && return 0
-  local major
+  "$PY" -c 'import importlib.util as u, sys; sys.exit(any(u.find_spec(m) is None for m in sys.argv[1:]))' $PIP_PKGS && return 0
+  local major pins
   major=$("$PY" -c 'import markdown_it; print(int(markdown_it.__version__.split(".")[0]) + 1)' 2>/dev/null || echo 99)
   log "installing from PyPI: $PIP_PKGS"
-  "$PY" -m pip install -q $PIP_PKGS "markdown-it-py<$major"
+  # multisphere's scikit-image would otherwise replace the numpy YADE is built against
+  pins=$("$PY" -c 'import numpy, scipy; print(f"numpy=={numpy.__version__} scipy=={scipy.__version__}")')
+  "$PY" -m pip install -q $PIP_PKGS $pins "markdown-it-py<$major"
 }
 
 report() {

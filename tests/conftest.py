@@ -25,6 +25,7 @@ LIBRARY = {
     "test_shape.py", "test_shape_cli.py", "test_show.py", "test_validation.py",
     "test_value_object.py",
     "test_io_formats.py",
+    "test_fit.py",
 }
 
 

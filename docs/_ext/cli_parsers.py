@@ -70,6 +70,11 @@ def show_parser():
     return literal_epilog(parser_of("clumpprops.show"))
 
 
+def fit_parser():
+    """``clumpprops fit MESH --spheres N``."""
+    return literal_epilog(parser_of("clumpprops.fit"))
+
+
 def studies_parser():
     """``python -m studies COMMAND SPEC``."""
     return parser_of("studies.__main__")
