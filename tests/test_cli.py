@@ -343,7 +343,7 @@ def test_main_is_importable_and_returns_status(tmpfile, capsys):
 
     assert main([str(tmpfile(DIMER)), "--method", "sum", "--format", "csv"]) == 0
     assert "0,2," in capsys.readouterr().out
-    assert main([str(tmpfile("0 0 0 1\n"))]) == 1
+    assert main([str(tmpfile("0 0 0 1 0\n0 0 1\n"))]) == 1
     assert "expected 5 columns" in capsys.readouterr().err
 
 

@@ -183,13 +183,6 @@ def test_formats_listed_and_every_one_detected():
     assert set(FORMATS) == {"csv", "liggghts", "mclump", "yade", "lammps", "liggghts-script", "deme"}
 
 
-def test_four_whitespace_columns_named_txt_stay_textclumps(tmp_path):
-    p = _write(tmp_path, "clumps.txt", "0 0 0 1\n")
-    assert detect_format(p) == "yade"
-    (c,) = read(p, fmt="liggghts")
-    assert np.array_equal(c.radii, [1.0])
-
-
 @pytest.mark.parametrize("command", ["export", "show"])
 def test_export_and_show_take_the_diameter_of_a_molecule_without_diameters(tmp_path, command):
     """The subcommands that read a clump file share the main command's input options."""
@@ -204,3 +197,14 @@ def test_export_and_show_take_the_diameter_of_a_molecule_without_diameters(tmp_p
         assert np.linalg.norm(c.centers[1] - c.centers[0]) == pytest.approx(1.0, rel=1e-15)
     else:
         assert (tmp_path / "v.png").stat().st_size > 10_000
+
+
+def test_a_four_column_whitespace_txt_is_an_xyzr_list(tmp_path, capsys):
+    """CLUMP's whitespace tables and `clumpprops fit`'s output are `x y z r` lines named .txt: read
+    as one clump by the main command, not refused as textClumps without ids."""
+    p = _write(tmp_path, "grain.spheres.txt", "0 0 0 1\n1 0 0 1\n")
+    assert detect_format(p) == "liggghts"
+    assert cli_main([str(p), "--format", "csv"]) == 0
+    assert float(capsys.readouterr().out.splitlines()[1].split(",")[3]) == pytest.approx(DIMER_VOLUME, rel=1e-14)
+    assert cli_main([str(p), "--from", "yade"]) == 1          # forced textClumps: the ids are missing
+    assert "expected 5 columns" in capsys.readouterr().err

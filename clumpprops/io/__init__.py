@@ -8,7 +8,7 @@ decides only where the content shows none), or takes it as ``fmt="csv"``, ...:
 format               file                                                   detected from
 ===================  =====================================================  ===========================================
 ``csv``              ``x,y,z,r`` table (CLUMP, MClump; any name)             a data line with commas
-``liggghts``         ``x y z r`` sphere list (any name but ``.txt``)          four whitespace-separated numbers
+``liggghts``         ``x y z r`` sphere list (any name)                     four whitespace-separated numbers
 ``yade``             textClumps ``x y z r clumpId``                          five columns, the fifth an integer
 ``lammps``           molecule file (``diameter=`` without ``Diameters``)     an ``N atoms`` line or a ``Coords`` section
 ``liggghts-script``  input script, one clump per template fix                a ``particletemplate/multisphere`` command

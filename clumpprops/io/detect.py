@@ -6,7 +6,7 @@ format               file                                              detected 
 ``csv``              ``x,y,z,r`` per line, optional header row         a data line with commas
                      (CLUMP's and MClump's tables, any name)
 ``liggghts``         LIGGGHTS sphere file ``x y z r [type]``           four whitespace-separated numbers
-                     (any name but ``.txt``, e.g. ``stone1.test``)     (or five, named ``.multisphere``)
+                     (any name, e.g. ``stone1.test``)                  (or five, named ``.multisphere``)
 ``yade``             YADE ``ymport.textClumps`` ``x y z r clumpId``    five columns, the fifth an integer
 ``lammps``           LAMMPS molecule file (any name: ``.mol``,         an ``N atoms`` header line or a
                      ``molecule.data``, ``molecule.vshape``)           ``Coords`` section
@@ -132,9 +132,9 @@ def detect_format(path) -> str:
     ``stone1.test`` is ``liggghts``.  Only where the first lines show no format does the name
     decide (``.csv``, ``.multisphere``/``.ms``/``.spheres``, ``.txt``, ``.mol``/``.molecule``,
     ``.json``).  A five-column file named like a LIGGGHTS sphere file stays ``liggghts`` (its
-    fifth column is the atom type), and a four-column whitespace file named ``.txt`` stays ``yade``
-    (textClumps, YADE's name, with a line missing its clump id; ``fmt="liggghts"`` reads it as
-    ``x y z r``).  A folder, and a file named ``Clump.txt``, are ``mclump``.
+    fifth column is the atom type), and a four-column whitespace file named ``.txt`` is an
+    ``x y z r`` list (``liggghts``: CLUMP's and ``clumpprops fit``'s whitespace tables; a textClumps
+    file starts with five columns; ``fmt="yade"`` reads it as textClumps).  A folder, and a file named ``Clump.txt``, are ``mclump``.
     """
     p = Path(path)
     if p.is_dir() or p.name == "Clump.txt":
@@ -142,8 +142,6 @@ def detect_format(path) -> str:
     by_name = _EXT.get(p.suffix.lower())
     by_content = sniff_format(p) if p.is_file() else None
     if by_content == "yade" and by_name == "liggghts":
-        return by_name
-    if by_content == "liggghts" and by_name == "yade":  # a .txt of 4 columns: textClumps missing its ids
         return by_name
     fmt = by_content or by_name
     if fmt is None:
