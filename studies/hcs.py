@@ -32,7 +32,8 @@ from scipy import optimize
 from . import hcs_theory
 
 __all__ = ["rotational_dof", "temperatures", "fit_haff", "temperature_ratio", "scaled_time", "msd_from_start",
-           "fit_scaled_msd", "count_variance_ratio", "homogeneous_until", "haff_theory", "analyse"]
+           "fit_scaled_msd", "count_variance_ratio", "homogeneous_until", "haff_theory", "series",
+           "analyse_series", "analyse"]
 
 
 def rotational_dof(run_input):
@@ -302,8 +303,72 @@ def haff_theory(n_particles, box, diameter, mass, t0, restitution):
     return {"zeta0": zeta, "tau0": 2.0 / zeta, "omega0": omega, "chi": chi, "phi": phi}
 
 
+def series(frames, run_input, cells_per_side=4):
+    """The per-frame series of a run that :func:`analyse_series` needs: what a reduced run record
+    keeps of a dissipative run (:func:`studies.reduce.reduce_run`), so that the analysis needs no
+    raw frames.
+
+    Parameters
+    ----------
+    frames : mapping
+        The run's recorded frames (``t``, ``disp``, ``e_trans``, ``e_rot``; ``pos0``, else the run
+        file's initial positions).
+    run_input : dict
+        The run file.
+    cells_per_side : int, optional
+        Cells per box edge of the homogeneity check.
+
+    Returns
+    -------
+    dict
+        ``t`` (s), ``e_trans`` and ``e_rot`` (J, whole gas), ``msd`` (:func:`msd_from_start`, m^2),
+        ``count_ratio`` (:func:`count_variance_ratio`), and ``cells_per_side``, ``n_particles``,
+        ``rot_dof``, ``box_length`` (m), the body's ``builder``, ``mass`` (kg) and ``diameter`` (m,
+        spheres; None for clumps), the contact's ``restitution`` and ``friction``.
+    """
+    body, mat = run_input["body"], run_input.get("material", {})
+    disp = np.asarray(frames["disp"], float)
+    pos0 = np.asarray(frames["pos0"] if "pos0" in frames else run_input["initial"]["pos"], float)
+    return {"t": np.asarray(frames["t"], float), "e_trans": np.asarray(frames["e_trans"], float),
+            "e_rot": np.asarray(frames["e_rot"], float), "msd": msd_from_start(disp),
+            "count_ratio": count_variance_ratio(pos0[None] + disp, float(run_input["box_length"]), cells_per_side),
+            "cells_per_side": int(cells_per_side), "n_particles": int(len(pos0)),
+            "rot_dof": rotational_dof(run_input), "box_length": float(run_input["box_length"]),
+            "builder": body["builder"], "mass": float(body["mass"]),
+            "diameter": 2.0 * float(body["radius"]) if body["builder"] == "sphere" else None,
+            "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0))}
+
+
+def analyse_series(s, t_transient=0.0):
+    """The HCS quantities from a run's :func:`series` (or the ``hcs`` part of its reduced record).
+
+    Parameters
+    ----------
+    s : mapping
+        :func:`series` of the run.
+    t_transient : float, optional
+        Frames before it are left out of the T_rot / T_tr average (s).
+
+    Returns
+    -------
+    dict
+        ``t_end_homogeneous`` (s, where the analysed window ends), ``haff`` (:func:`fit_haff` on
+        T_tr up to it), ``ratio`` (:func:`temperature_ratio`, None without rotation), ``msd``
+        (:func:`fit_scaled_msd`), ``rot_dof``.
+    """
+    t, e_trans, e_rot = (np.asarray(s[k], float) for k in ("t", "e_trans", "e_rot"))
+    f_rot = int(s["rot_dof"])
+    t_tr, t_rot = temperatures(e_trans, e_rot, int(s["n_particles"]), f_rot)
+    t_hom = homogeneous_until(t, np.asarray(s["count_ratio"], float), int(s["cells_per_side"]) ** 3)
+    haff = fit_haff(t, t_tr, 0.0, t_hom)
+    rot = (temperature_ratio(t, t_tr, t_rot, t_transient, t_hom)
+           if np.max(e_rot) > 1e-9 * e_trans[0] and t_transient < t_hom else None)
+    msd = fit_scaled_msd(t, np.asarray(s["msd"], float), haff["tau0"], min(t_transient, t[-4]), t_hom)
+    return {"t_end_homogeneous": t_hom, "haff": haff, "ratio": rot, "msd": msd, "rot_dof": f_rot}
+
+
 def analyse(frames, run_input, t_transient=0.0, cells_per_side=4):
-    """The HCS quantities of one run.
+    """The HCS quantities of one run: :func:`analyse_series` of its :func:`series`.
 
     Parameters
     ----------
@@ -319,20 +384,6 @@ def analyse(frames, run_input, t_transient=0.0, cells_per_side=4):
     Returns
     -------
     dict
-        ``t_end_homogeneous`` (s, where the analysed window ends), ``haff`` (:func:`fit_haff` on
-        T_tr up to it), ``ratio`` (:func:`temperature_ratio`, None without rotation), ``msd``
-        (:func:`fit_scaled_msd`), ``rot_dof``.
+        As :func:`analyse_series`.
     """
-    t = np.asarray(frames["t"], float)
-    n = len(run_input["initial"]["pos"])
-    f_rot = rotational_dof(run_input)
-    t_tr, t_rot = temperatures(frames["e_trans"], frames["e_rot"], n, f_rot)
-    disp = np.asarray(frames["disp"], float)
-    pos = np.asarray(frames["pos0"], float)[None] + disp
-    ratio = count_variance_ratio(pos, float(run_input["box_length"]), cells_per_side)
-    t_hom = homogeneous_until(t, ratio, cells_per_side ** 3)
-    haff = fit_haff(t, t_tr, 0.0, t_hom)
-    rot = (temperature_ratio(t, t_tr, t_rot, t_transient, t_hom)
-           if np.max(frames["e_rot"]) > 1e-9 * frames["e_trans"][0] and t_transient < t_hom else None)
-    msd = fit_scaled_msd(t, msd_from_start(disp), haff["tau0"], min(t_transient, t[-4]), t_hom)
-    return {"t_end_homogeneous": t_hom, "haff": haff, "ratio": rot, "msd": msd, "rot_dof": f_rot}
+    return analyse_series(series(frames, run_input, cells_per_side), t_transient)

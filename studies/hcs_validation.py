@@ -1,8 +1,9 @@
 """The sphere validations of the homogeneous cooling state: rows of ``results/hcs_theory.csv``.
 
-Reads the raw frames a sweep keeps (``python -m studies run SPEC --keep-raw`` writes
-``<results>/raw/<run>.npz`` with ``<run>.run.json``), analyses every run with
-:func:`studies.hcs.analyse`, and compares the seeds' mean with kinetic theory:
+Reads the HCS series of every run (:func:`studies.hcs.series`): from the reduced run records a
+sweep writes (:func:`load_records`, their ``hcs`` part), or from raw frames
+(``python -m studies run SPEC --keep-raw``, :func:`load_raw`); analyses each with
+:func:`studies.hcs.analyse_series`, and compares the seeds' mean with kinetic theory:
 
 * ``cooling_rate``: zeta0 = 2 / tau0 of Haff's fit against :func:`studies.hcs.haff_theory`
   (Enskog frequency, Carnahan-Starling contact value, Sonine factor) for smooth spheres;
@@ -35,7 +36,7 @@ ACCURACY = {"cooling_rate": 0.003, "temperature_ratio": 0.05, "diffusion": float
 
 
 def load_raw(raw_dir):
-    """The runs of a raw folder: list of (frames dict, run file dict), in name order.
+    """The HCS series of the runs of a raw folder, in name order.
 
     Parameters
     ----------
@@ -44,36 +45,58 @@ def load_raw(raw_dir):
 
     Returns
     -------
-    list of (dict, dict)
+    list of dict
+        :func:`studies.hcs.series` of each run.
     """
     out = []
     for path in sorted(glob.glob(os.path.join(raw_dir, "*.npz"))):
         with open(path[:-4] + ".run.json") as f:
             rin = json.load(f)
         with np.load(path) as z:
-            out.append(({k: z[k] for k in z.files}, rin))
+            out.append(hcs.series({k: z[k] for k in z.files}, rin))
     return out
 
 
-def smooth_theory(frames, rin):
+def load_records(results_dir):
+    """The HCS series kept in the reduced run records of a results folder, in name order.
+
+    Parameters
+    ----------
+    results_dir : str
+        A study's results folder (its ``runs/*.json``).
+
+    Returns
+    -------
+    list of dict
+        The ``hcs`` part of every record that has one (dissipative runs).
+    """
+    out = []
+    for path in sorted(glob.glob(os.path.join(results_dir, "runs", "*.json"))):
+        with open(path) as f:
+            rec = json.load(f)
+        if "hcs" in rec:
+            out.append(rec["hcs"])
+    return out
+
+
+def smooth_theory(s):
     """Enskog-Sonine zeta0 and Brilliantov-Poeschel D0 of a smooth-sphere run at its T0.
 
     Parameters
     ----------
-    frames, rin : dict
-        The run's frames and run file (a sphere gas).
+    s : mapping
+        The run's :func:`studies.hcs.series` (a sphere gas).
 
     Returns
     -------
     dict
         ``zeta0`` (1/s) and ``d0`` (m^2/s).
     """
-    n, body = len(rin["initial"]["pos"]), rin["body"]
-    e = float(rin["material"].get("restitution", 1.0))
-    t0 = 2.0 * float(frames["e_trans"][0]) / (3.0 * n)
-    th = hcs.haff_theory(n, float(rin["box_length"]), 2.0 * body["radius"], body["mass"], t0, e)
+    n, e = int(s["n_particles"]), float(s["restitution"])
+    t0 = 2.0 * float(s["e_trans"][0]) / (3.0 * n)
+    th = hcs.haff_theory(n, float(s["box_length"]), float(s["diameter"]), float(s["mass"]), t0, e)
     nu_d = hcs_theory.velocity_relaxation_rate(e, -1.0, KAPPA_SPHERE, th["omega0"])
-    return {"zeta0": th["zeta0"], "d0": hcs_theory.hcs_diffusion(t0, body["mass"], nu_d, th["zeta0"])}
+    return {"zeta0": th["zeta0"], "d0": hcs_theory.hcs_diffusion(t0, float(s["mass"]), nu_d, th["zeta0"])}
 
 
 def _row(observable, e, mu, values, theory, name):
@@ -87,8 +110,8 @@ def rows(runs, ratio_theory=None, t_transient=0.0):
 
     Parameters
     ----------
-    runs : list of (dict, dict)
-        Frames and run file of each run (:func:`load_raw`); sphere gases only.
+    runs : list of dict
+        The HCS series of each run (:func:`load_records`, :func:`load_raw`); sphere gases only.
     ratio_theory : callable, optional
         ``ratio_theory(restitution, friction) -> T_rot / T_tr`` of the rough-sphere theory; NaN without it.
     t_transient : float, optional
@@ -105,21 +128,21 @@ def rows(runs, ratio_theory=None, t_transient=0.0):
         If a run is not a sphere gas.
     """
     groups = {}
-    for frames, rin in runs:
-        if rin["body"]["builder"] != "sphere":
+    for s in runs:
+        if s["builder"] != "sphere":
             raise ValueError("the HCS validation takes sphere gases only")
-        key = (float(rin["material"].get("restitution", 1.0)), float(rin["material"].get("friction", 0.0)))
-        groups.setdefault(key, []).append((frames, rin, hcs.analyse(frames, rin, t_transient=t_transient)))
+        key = (float(s["restitution"]), float(s["friction"]))
+        groups.setdefault(key, []).append((s, hcs.analyse_series(s, t_transient=t_transient)))
     out = []
     for (e, mu), items in sorted(groups.items()):
         if mu == 0.0:
-            th = [smooth_theory(f, r) for f, r, _ in items]
-            out.append(_row("cooling_rate", e, mu, [a["haff"]["zeta0"] for _, _, a in items],
+            th = [smooth_theory(s) for s, _ in items]
+            out.append(_row("cooling_rate", e, mu, [a["haff"]["zeta0"] for _, a in items],
                             np.mean([t["zeta0"] for t in th]), "Haff, Enskog-Sonine (van Noije and Ernst 1998)"))
-            out.append(_row("diffusion", e, mu, [a["msd"]["d0"] for _, _, a in items],
+            out.append(_row("diffusion", e, mu, [a["msd"]["d0"] for _, a in items],
                             np.mean([t["d0"] for t in th]), "HCS self-diffusion (Brilliantov and Poeschel 2000)"))
         else:
-            ratios = [a["ratio"]["ratio"] for _, _, a in items if a["ratio"] is not None]
+            ratios = [a["ratio"]["ratio"] for _, a in items if a["ratio"] is not None]
             theory = ratio_theory(e, mu) if ratio_theory is not None else float("nan")
             out.append(_row("temperature_ratio", e, mu, ratios, theory,
                             "two-temperature balance of the measured collision rule (Huthmann and Zippelius 1997)"))

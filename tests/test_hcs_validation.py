@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from studies import hcs_validation as V
+from studies import hcs, hcs_validation as V
 
 N, BOX, SIGMA, MASS = 200, 8.0, 0.2, 5.0
 
@@ -30,7 +30,7 @@ def test_smooth_runs_that_follow_theory_agree_with_it(tmp_path):
     rng = np.random.default_rng(4)
     rin = _run_file(0.9, 0.0)
     t0 = 2.0
-    th = V.smooth_theory({"e_trans": [1.5 * N * t0]}, rin)
+    th = V.smooth_theory(hcs.series({**_frames(rng, t0, 1.0, 0.0), "e_trans": [1.5 * N * t0]}, rin))
     for seed in range(3):
         frames = _frames(rng, t0, 2 / th["zeta0"] * (1 + 0.01 * (seed - 1)), th["d0"])
         np.savez(tmp_path / f"s{seed}.npz", **frames)
@@ -46,7 +46,7 @@ def test_smooth_runs_that_follow_theory_agree_with_it(tmp_path):
 
 def test_rough_runs_give_the_ratio_row():
     rng = np.random.default_rng(5)
-    runs = [(_frames(rng, 2.0, 5.0, 0.1, ratio=0.45), _run_file(0.9, 0.5)) for _ in range(2)]
+    runs = [hcs.series(_frames(rng, 2.0, 5.0, 0.1, ratio=0.45), _run_file(0.9, 0.5)) for _ in range(2)]
     rows = V.rows(runs, ratio_theory=lambda e, mu: 0.5)
     assert len(rows) == 1 and rows[0]["observable"] == "temperature_ratio"
     assert rows[0]["measured"] == pytest.approx(0.45) and rows[0]["theory"] == 0.5
@@ -57,4 +57,30 @@ def test_clumps_are_refused():
     rin = _run_file(0.9, 0.0)
     rin["body"]["builder"] = "clumpprops"
     with pytest.raises(ValueError, match="sphere"):
-        V.rows([(_frames(np.random.default_rng(1), 1.0, 5.0, 0.1), rin)])
+        V.rows([hcs.series(_frames(np.random.default_rng(1), 1.0, 5.0, 0.1), rin)])
+
+
+def test_records_keep_what_the_validation_needs(tmp_path):
+    """A dissipative run's reduced record holds its HCS series, and the rows from the records
+    equal the rows from the raw frames."""
+    from studies import reduce as red
+    rng = np.random.default_rng(6)
+    rin = _run_file(0.9, 0.0)
+    rin["initial"]["vel"] = rng.normal(size=(N, 3)).tolist()
+    raw = []
+    (tmp_path / "runs").mkdir()
+    for seed in range(3):
+        fr = _frames(rng, 2.0, 6.0 + seed, 0.05)
+        n_f = len(fr["t"])
+        fr.update(vel=np.zeros((n_f, N, 3)), e_elastic=np.zeros(n_f), momentum=np.zeros((n_f, 3)),
+                  e_dissipated=fr["e_trans"][0] - fr["e_trans"])
+        rin["body"]["mass"] = MASS
+        rec = red.reduce_run(fr, rin, [0.0], 1.0, 0.2, 1e-9)
+        assert set(rec["hcs"]) >= {"t", "e_trans", "e_rot", "msd", "count_ratio", "builder", "restitution"}
+        (tmp_path / "runs" / f"s{seed}.json").write_text(json.dumps(rec))
+        raw.append(hcs.series(fr, rin))
+    from_records, from_raw = V.rows(V.load_records(str(tmp_path))), V.rows(raw)
+    assert [r["observable"] for r in from_records] == ["cooling_rate", "diffusion"]
+    for a, b in zip(from_records, from_raw):
+        assert a["measured"] == pytest.approx(b["measured"], rel=1e-8)
+        assert a["theory"] == pytest.approx(b["theory"], rel=1e-8)
