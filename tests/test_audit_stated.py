@@ -137,3 +137,19 @@ def test_the_audit_takes_the_density_a_liggghts_script_states(tmp_path, capsys):
     assert "density 2500 kg/m^3" in out and "agrees with the exact values" in out
     assert main([str(tmp_path / "in.rho"), "--density", "1000", "--ntry", "20000", "--seed", "1", "--tolerance", "0.05"]) == 0
     assert "agrees with the exact values" not in capsys.readouterr().out
+
+
+def test_a_template_that_states_nothing_is_said_so_and_not_misdiagnosed(tmp_path, capsys):
+    """A LIGGGHTS template without mass/inertia_tensor leaves them to LIGGGHTS' Monte Carlo: no
+    error columns, no reference-point finding, and the audit shows the exact shape descriptors."""
+    from clumpprops.cli import main
+    (tmp_path / "s.multisphere").write_text("0 0 0 1\n1.2 0 0 0.8\n0.3 0.9 0 0.7\n")
+    (tmp_path / "in.s").write_text("fix pts1 all particletemplate/multisphere 15485863 atom_type 1 density constant "
+                                   "2500 nspheres 3 ntry 100000 spheres file s.multisphere scale 1 type 1\n")
+    assert main(["audit", str(tmp_path / "in.s"), "--seed", "1", "--tolerance", "0.05"]) == 0
+    out = capsys.readouterr().out
+    stated = next(l for l in out.splitlines() if l.startswith("stated:"))
+    assert stated.split()[-4:] == ["-", "-", "-", "-"]
+    assert "states no mass or inertia" in out and "wrong reference point" not in out
+    shape_line = next(l for l in out.splitlines() if l.startswith("# shape:"))
+    assert "surface area" in shape_line and "sphericity" in shape_line

@@ -26,6 +26,13 @@ def _row(est, exact):
             "mass_error": float(err[0]), "moment_errors": err[1:].tolist(), "cost": est.cost, "seconds": est.seconds}
 
 
+def _shape(centers, radii):
+    """The exact shape descriptors (:func:`clumpprops.shape_descriptors`) as plain numbers."""
+    from ..shape import shape_descriptors
+
+    return shape_descriptors(centers, radii).to_dict()
+
+
 def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[float] = (0.01, 0.001),
                 seed: Optional[int] = None, ntry: int = methods.LIGGGHTS_NTRY,
                 discretization: int = methods.YADE_DISCRETIZATION, qmc_points: int = methods.QMC_POINTS,
@@ -59,7 +66,8 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
     dict
         ``methods`` (rows: values, relative errors, cost, seconds), ``advice`` (per sampled method
         and tolerance: setting, cost, seconds), ``curves`` (error against cost, for plots),
-        ``stated`` (diagnoses) and ``seconds`` (whole audit and exact values alone).
+        ``stated`` (diagnoses), ``shape`` (:meth:`clumpprops.ShapeDescriptors.to_dict`) and
+        ``seconds`` (whole audit and exact values alone).
     """
     t0 = time.perf_counter()
     c, r = np.asarray(centers, float), np.asarray(radii, float)
@@ -89,5 +97,6 @@ def audit_clump(centers, radii, density: float = 1000.0, tolerances: Sequence[fl
                    "Halton QMC (DEME)": qmc_curve},
         "qmc_frame_error": frame,
         "stated": [diagnose(st, exact, summed) for st in (stated or [])],
+        "shape": _shape(c, r),
         "seconds": {"audit": time.perf_counter() - t0, "exact": exact.seconds},
     }

@@ -95,7 +95,7 @@ def _density(given, stated, default=1000.0):
 
 
 def _pct(x):
-    return f"{100 * x:+9.3g}"
+    return f"{'-':>9}" if x is None or x != x else f"{100 * x:+9.3g}"
 
 
 def format_table(reports) -> str:
@@ -120,6 +120,12 @@ def format_table(reports) -> str:
         for m in rep["methods"]:
             out.append(f"{m['method']:<32} {m['setting'] or 'default':<22} {_pct(m['mass_error'])} "
                        + " ".join(_pct(e) for e in m["moment_errors"]) + f" {m['seconds']:8.3f}")
+        if rep.get("shape"):
+            sh = rep["shape"]
+            out.append(f"# shape: surface area {sh['surface_area']:.10g} m^2, d_v {sh['diameter']:.6g} m, sphericity "
+                       f"{sh['sphericity']:.4f}, kappa " + " ".join(f"{k:.4f}" for k in sh["kappa"])
+                       + f", elongation {sh['elongation']:.4f}, flatness {sh['flatness']:.4f}, bounding radius "
+                       f"{sh['bounding_radius']:.6g} m")
         for s in rep["stated"]:
             errs = s.get("moment_errors", [float("nan")] * 3)
             out.append(f"{'stated: ' + s['engine']:<55} {_pct(s.get('mass_error', float('nan')))} "
