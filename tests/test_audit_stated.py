@@ -153,3 +153,26 @@ def test_a_template_that_states_nothing_is_said_so_and_not_misdiagnosed(tmp_path
     assert "states no mass or inertia" in out and "wrong reference point" not in out
     shape_line = next(l for l in out.splitlines() if l.startswith("# shape:"))
     assert "surface area" in shape_line and "sphericity" in shape_line
+
+
+@pytest.mark.parametrize("order,swapped", [("voigt", False), ("documented", True)])
+def test_a_molecule_header_about_the_origin_is_named_with_its_order(tmp_path, order, swapped):
+    """A LAMMPS molecule header whose inertia is the tensor about the file's origin (LAMMPS'
+    examples/rigid/molecule.data is one), perturbed by 0.3 % as a sampled estimate would be, in
+    LAMMPS' reading order (Voigt: xx yy zz yz xz xy) or in the documented one (xx yy zz xy xz yz)."""
+    shifted = CENTERS + np.array([5.0, 4.0, 3.0])
+    ex, _ = _props(shifted)
+    d = ex.com
+    I0 = ex.extra["inertia"] + ex.mass * (d @ d * np.eye(3) - np.outer(d, d))
+    I0 = I0 * (1.0 + 0.003 * np.array([[1, -1, 1], [-1, 1, 1], [1, 1, -1]]))
+    six = ([I0[0, 0], I0[1, 1], I0[2, 2], I0[1, 2], I0[0, 2], I0[0, 1]] if order == "voigt"
+           else [I0[0, 0], I0[1, 1], I0[2, 2], I0[0, 1], I0[0, 2], I0[1, 2]])
+    rows = "\n".join(f"{i + 1} {c[0]!r} {c[1]!r} {c[2]!r}" for i, c in enumerate(shifted))
+    dia = "\n".join(f"{i + 1} {2 * r!r}" for i, r in enumerate(RADII))
+    (tmp_path / "m.data").write_text(f"made elsewhere\n\n3 atoms\n\n{ex.mass!r} mass\n\n" + " ".join(map(repr, d))
+                                     + " com\n\n" + " ".join(map(repr, six)) + " inertia\n\nCoords\n\n" + rows
+                                     + "\n\nDiameters\n\n" + dia + "\n")
+    (st,) = read_stated(tmp_path / "m.data")
+    found = [f for f in _findings(st, shifted)["findings"] if f.startswith("the tensor is")]
+    assert len(found) == 1 and "about the file's origin" in found[0]
+    assert ("swapped" in found[0]) == swapped

@@ -77,6 +77,10 @@ def diagnose(stated, exact, summed) -> dict:
             f.append(f"the tensor is the {name} one about {stated.reference.tolist()}, not about the centre of mass")
         elif name == "summed spheres" and _close(stated.inertia, T, scale) and not _close(T, I_c, scale):
             f.append("overlap error: the tensor is the summed spheres'")
+    if not any("tensor" in x for x in f):
+        near = nearest_tensor(stated.inertia, exact, summed, stated.reference)
+        if near is not None:
+            f.append(near)
     off = np.max(np.abs(I_c - np.diag(np.diag(I_c))))
     if stated.diagonal_only and off > MATCH * scale:
         f.append(f"frame not principal: the engine keeps only the diagonal, the off-diagonal terms reach "
@@ -84,3 +88,54 @@ def diagnose(stated, exact, summed) -> dict:
     if not f and max(abs(e) for e in out["moment_errors"] + [out.get("mass_error", 0.0)]) <= MATCH:
         f.append("agrees with the exact values")
     return out
+
+
+#: A stated tensor within this relative distance of a candidate, and ten times closer to it than
+#: to the exact tensor about the centre of mass, is named as that candidate (a file's values may
+#: come from a sampled estimate, good to a few per mille).
+NEAR = 0.02
+
+
+def _swap_xy_yz(T):
+    """The tensor with its xy and yz products exchanged (a six-value line read in the other order)."""
+    T = np.array(T, float)
+    T[0, 1], T[1, 2] = T[1, 2], T[0, 1]
+    T[1, 0], T[2, 1] = T[0, 1], T[1, 2]
+    return T
+
+
+def nearest_tensor(stated_inertia, exact, summed, reference):
+    """Which wrong tensor a stated one is, when it is near none exactly.
+
+    Parameters
+    ----------
+    stated_inertia : array_like, shape (3, 3)
+        The stated tensor.
+    exact, summed : clumpprops.audit.methods.Estimate
+        Exact and summed-sphere values (``extra["inertia"]``: tensor about the centre of mass).
+    reference : array_like, shape (3,)
+        The point the file states as the centre of mass.
+
+    Returns
+    -------
+    str or None
+        One line naming the nearest of: the exact or summed tensor about the file's origin or
+        about the stated point, as it is or with its xy and yz products exchanged; None when the stated tensor is nearest to the exact one about
+        the centre of mass, or near none of them.
+    """
+    S = np.asarray(stated_inertia, float)
+    origin, reference = np.zeros(3), np.asarray(reference, float)
+    cands = {"the exact one about the centre of mass": exact.extra["inertia"]}
+    for name, est in (("exact", exact), ("summed spheres'", summed)):
+        for where, point in (("the file's origin [0, 0, 0]", origin), ("the stated point", reference)):
+            T = _shifted(est.extra["inertia"], est.mass, est.com - point)
+            cands[f"the {name} one about {where}"] = T
+            cands[f"the {name} one about {where} with Ixy and Iyz swapped (written as Ixy Ixz Iyz, read in "
+                  f"Voigt order Iyz Ixz Ixy)"] = _swap_xy_yz(T)
+    dist = {k: float(np.max(np.abs(S - T)) / np.max(np.abs(T))) for k, T in cands.items()}
+    best = min(dist, key=dist.get)
+    base = dist["the exact one about the centre of mass"]
+    if best == "the exact one about the centre of mass" or dist[best] > NEAR or dist[best] * 10 > base:
+        return None
+    return (f"the tensor is {best} (to {100 * dist[best]:.2g} %), not about the centre of mass "
+            f"({100 * base:.3g} % from the exact one there)")
