@@ -86,6 +86,10 @@ def _sphere_surfaces(ax, centers, radii, resolution=20):
                         linewidth=0, antialiased=False, alpha=0.35)
 
 
+#: The axes are drawn this many times their reach inside the union (:func:`principal_arrows`).
+OUTSIDE = 1.6
+
+
 def draw(centers, radii, mp, path, size: int = 800, title: str = "") -> None:
     """Draw a clump's spheres and principal axes into a PNG file of `size` x `size` pixels.
 
@@ -119,13 +123,17 @@ def draw(centers, radii, mp, path, size: int = 800, title: str = "") -> None:
     fig = Figure(figsize=(size / 100.0, size / 100.0), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="3d")
+    ax.computed_zorder = False   # drawn in the order added: the axes over the spheres
     _sphere_surfaces(ax, c, r)
-    for arrow, colour in zip(principal_arrows(c, r, mp), ("tab:red", "tab:green", "tab:blue")):
-        d = arrow.end - arrow.start
+    arrows = principal_arrows(c, r, mp)
+    for arrow, colour in zip(arrows, ("tab:red", "tab:green", "tab:blue")):
+        d = OUTSIDE * (arrow.end - arrow.start)   # past the surface, so that the tip shows
         ax.quiver(*arrow.start, *d, color=colour, linewidth=2.5, arrow_length_ratio=0.12)
-        ax.text(*(arrow.start + 1.08 * d), arrow.label, color=colour, fontsize=10)
-    ax.scatter(*arrow.start, color="black", s=25)
-    lo, hi = (c - r[:, None]).min(axis=0), (c + r[:, None]).max(axis=0)
+        ax.text(*(arrow.start + 1.05 * d), arrow.label, color=colour, fontsize=10)
+    ax.scatter(*arrows[0].start, color="black", s=25)
+    tips = np.array([a.start + OUTSIDE * (a.end - a.start) for a in arrows])
+    lo = np.minimum((c - r[:, None]).min(axis=0), tips.min(axis=0))
+    hi = np.maximum((c + r[:, None]).max(axis=0), tips.max(axis=0))
     mid, half = (lo + hi) / 2.0, 0.6 * float((hi - lo).max())
     ax.set(xlim=(mid[0] - half, mid[0] + half), ylim=(mid[1] - half, mid[1] + half),
            zlim=(mid[2] - half, mid[2] + half), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
