@@ -19,6 +19,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import sys
 
 import numpy as np
 
@@ -147,3 +148,74 @@ def rows(runs, ratio_theory=None, t_transient=0.0):
             out.append(_row("temperature_ratio", e, mu, ratios, theory,
                             "two-temperature balance of the measured collision rule (Huthmann and Zippelius 1997)"))
     return out
+
+
+def write(path, rows_):
+    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS`.
+
+    Parameters
+    ----------
+    path : str
+        The CSV file (``results/hcs_theory.csv``).
+    rows_ : list of dict
+        The rows.
+    """
+    import csv
+
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows_:
+            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else v) for k, v in r.items()})
+
+
+def main(argv=None):
+    """``python -m studies hcs-validation [SPEC]``: results/hcs_theory.csv from a sphere study's records.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command line's arguments.
+
+    Returns
+    -------
+    int
+        0, or 1 when the study has no cooling-run records yet.
+    """
+    import argparse
+
+    from . import spec as S
+    from .hcs_rule import measured_rule
+
+    ap = argparse.ArgumentParser(prog="python -m studies hcs-validation",
+                                 description="The sphere validations of the homogeneous cooling state against kinetic "
+                                             "theory, from the committed run records of a sphere study.",
+                                 epilog="Writes results/hcs_theory.csv (or --out). The rough spheres' theory is the "
+                                        "two-temperature balance of YADE's collision rule, measured from binary "
+                                        "collisions of the study's material (studies.hcs_rule).")
+    ap.add_argument("spec", nargs="?", default="hcs_spheres", help="the sphere study (default: hcs_spheres)")
+    ap.add_argument("--t-transient", type=float, default=10.0, metavar="S",
+                    help="frames before it are left out of the T_rot / T_tr average (default: 10 s)")
+    ap.add_argument("--out", default=os.path.join(S.ROOT, "results", "hcs_theory.csv"))
+    a = ap.parse_args(argv)
+    spec = S.load(a.spec if os.path.exists(a.spec) else os.path.join(S.SPEC_DIR, a.spec + ".toml"))
+    runs = load_records(os.path.join(S.ROOT, spec["study"]["results"]))
+    if not runs:
+        print(f"[hcs-validation] no cooling-run records in {spec['study']['results']}/runs", file=sys.stderr)
+        return 1
+    mat = spec["material"]
+
+    def ratio_theory(e, mu):
+        radius = 0.5 * next(float(s["diameter"]) for s in runs if float(s["friction"]) == mu)
+        rule, _ = measured_rule(e, mu, young=float(mat["youngs_modulus"]), density=float(mat["density"]),
+                                poisson=float(mat["poisson"]), radius=radius)
+        return hcs_theory.hcs_ratio_for_rule(rule, KAPPA_SPHERE, size=200_000, seed=1)[0]
+
+    out = rows(runs, ratio_theory=ratio_theory, t_transient=a.t_transient)
+    write(a.out, out)
+    for r in out:
+        print(f"[hcs-validation] {r['observable']} e={r['restitution']} mu={r['friction']}: measured "
+              f"{r['measured']:.5g} [{r['ci_low']:.5g}, {r['ci_high']:.5g}], theory {r['theory']:.5g} "
+              f"({100 * (r['measured'] / r['theory'] - 1):+.2f} %; {r['theory_name']})")
+    print(f"[hcs-validation] wrote {a.out}")
+    return 0

@@ -84,3 +84,39 @@ def test_records_keep_what_the_validation_needs(tmp_path):
     for a, b in zip(from_records, from_raw):
         assert a["measured"] == pytest.approx(b["measured"], rel=1e-8)
         assert a["theory"] == pytest.approx(b["theory"], rel=1e-8)
+
+
+def test_the_command_writes_the_table_from_the_records(tmp_path, capsys):
+    """`python -m studies hcs-validation SPEC` reads the study's records and writes the CSV with
+    the issue's columns (smooth spheres here: their theory needs no YADE)."""
+    import csv
+    import os
+    from studies import reduce as red
+    from studies import spec as S
+    text = open(os.path.join(S.SPEC_DIR, "hcs_test.toml")).read()
+    text = text.replace('results = "results/hcs_test"', f'results = "{tmp_path / "res"}"')
+    text = text[:text.rindex("[[groups]]")]                      # the smooth group only
+    spec = tmp_path / "smooth.toml"
+    spec.write_text(text)
+    rng = np.random.default_rng(8)
+    rin = _run_file(0.9, 0.0)
+    rin["initial"]["vel"] = rng.normal(size=(N, 3)).tolist()
+    (tmp_path / "res" / "runs").mkdir(parents=True)
+    zeta = V.smooth_theory(hcs.series({**_frames(rng, 2.0, 1.0, 0.0), "e_trans": [1.5 * N * 2.0]}, rin))["zeta0"]
+    for seed in range(3):
+        fr = _frames(rng, 2.0, 2.0 / zeta * (1 + 0.01 * (seed - 1)), 0.05)
+        n_f = len(fr["t"])
+        fr.update(vel=np.zeros((n_f, N, 3)), e_elastic=np.zeros(n_f), momentum=np.zeros((n_f, 3)),
+                  e_dissipated=fr["e_trans"][0] - fr["e_trans"])
+        rec = red.reduce_run(fr, rin, [0.0], 1.0, 0.2, 1e-9)
+        (tmp_path / "res" / "runs" / f"s{seed}.json").write_text(json.dumps(rec))
+    out = tmp_path / "hcs_theory.csv"
+    assert V.main([str(spec), "--out", str(out)]) == 0
+    with open(out) as f:
+        rows = list(csv.DictReader(f))
+    assert tuple(rows[0]) == V.COLUMNS and [r["observable"] for r in rows] == ["cooling_rate", "diffusion"]
+    assert float(rows[0]["ci_low"]) <= zeta <= float(rows[0]["ci_high"])
+    assert "hcs_theory.csv" in capsys.readouterr().out
+    empty = tmp_path / "empty.toml"
+    empty.write_text(text.replace(str(tmp_path / "res"), str(tmp_path / "none")))
+    assert V.main([str(empty), "--out", str(tmp_path / "x.csv")]) == 1

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from studies import hcs, hcs_theory
+from studies.hcs_rule import binary, measured_rule
 from studies import spec as S
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -72,60 +73,15 @@ def test_smooth_gas_cools_by_haffs_law(gas_runs):
     assert a["ratio"] is None                                # smooth spheres do not spin
 
 
-def _binary(e, mu, v_n, v_t, young=YOUNG):
-    """One collision of two spheres (d = 0.2 m) in YADE: (normal restitution, tangential restitution beta)."""
-    from yade import O, utils
-    from yade.minieigenHP import Vector3
-    from yade.wrapper import (Bo1_Sphere_Aabb, ForceResetter, FrictMat, Ig2_Sphere_Sphere_ScGeom, InsertionSortCollider,
-                              InteractionLoop, Ip2_FrictMat_FrictMat_MindlinPhys, Law2_ScGeom_MindlinPhys_Mindlin,
-                              MatchMaker, NewtonIntegrator)
-    O.reset()
-    mat = O.materials.append(FrictMat(young=young, poisson=0.4, density=1140.0, frictionAngle=math.atan(mu)))
-    a = O.bodies.append(utils.sphere((0, 0, 0), 0.1, material=mat))
-    b = O.bodies.append(utils.sphere((0.2001, 0, 0), 0.1, material=mat))
-    O.bodies[a].state.vel = Vector3(v_n / 2, v_t / 2, 0)
-    O.bodies[b].state.vel = Vector3(-v_n / 2, -v_t / 2, 0)
-    ip = Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=e), es=MatchMaker(algo="val", val=e))
-    O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
-                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [ip], [Law2_ScGeom_MindlinPhys_Mindlin()]),
-                 NewtonIntegrator(damping=0)]
-    O.dt = 0.5 * 0.1 * math.sqrt(1140.0 / young)
-    while True:
-        O.run(200, True)
-        if len([i for i in O.interactions if i.isReal]) == 0 and O.iter > 400:
-            break
-    sa, sb = O.bodies[a].state, O.bodies[b].state
-    g_n = -(sa.vel[0] - sb.vel[0])
-    g_t = (sa.vel[1] - sb.vel[1]) + 0.1 * (sa.angVel[2] + sb.angVel[2])
-    return g_n / v_n, (-g_t / v_t if v_t else float("nan"))
-
-
 def test_head_on_restitution_is_en():
     for v in (0.5, 2.0):
-        e, _ = _binary(0.9, 0.0, v, 0.0)
+        e, _ = binary(0.9, 0.0, v, 0.0, young=YOUNG)
         assert e == pytest.approx(0.9, abs=0.003)
-
-
-RATIOS = np.array([0.05, 0.25, 0.5, 1.0, 2.0, 3.0])
-
-
-def measured_rule(e, mu):
-    """A collision rule (studies.hcs_theory) from YADE binary collisions: beta against g_t / g_n at
-    v_n = 0.5 m/s, Walton's sliding limit beyond the table (grazing impacts slide)."""
-    betas = np.array([_binary(e, mu, 0.5, 0.5 * q)[1] for q in RATIOS])
-
-    def rule(g_n, g_t, kappa):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            q = g_t / g_n
-            sliding = -1.0 + mu * (1.0 + e) * (1.0 + 1.0 / kappa) / q
-        beta = np.where(q <= RATIOS[-1], np.interp(q, RATIOS, betas), np.minimum(betas[-1], sliding))
-        return np.full_like(g_n, e), beta
-    return rule, betas
 
 
 def test_rough_gas_reaches_the_hcs_ratio_of_its_collision_rule(gas_runs):
     frames, rin, facts = gas_runs["rough"]
-    rule, betas = measured_rule(0.9, 0.5)
+    rule, betas = measured_rule(0.9, 0.5, young=YOUNG)
     theory, _ = hcs_theory.hcs_ratio_for_rule(rule, 0.4, size=100_000)
     t_tr, t_rot = hcs.temperatures(frames["e_trans"], frames["e_rot"], len(rin["initial"]["pos"]), 3)
     measured = hcs.temperature_ratio(frames["t"], t_tr, t_rot, t_lo=10.0)
