@@ -10,7 +10,7 @@ import pytest
 
 from clumpprops.io import ClumpFileError, read
 from clumpprops.io import molecule as M
-from clumpprops.io import readers as R
+from clumpprops.io import tables as R
 from clumpprops._numtext import fast_table, strict_float, strict_int
 from clumpprops.textclumps import parse_text_clumps, read_text_clumps
 

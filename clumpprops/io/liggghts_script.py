@@ -17,7 +17,7 @@ from typing import List
 
 from ._common import Clump, ClumpFileError
 from .detect import _TEMPLATE
-from .readers import _make, _number, _read_lines, read_liggghts
+from .tables import _make, _number, _read_lines, read_liggghts
 
 
 __all__ = ["read_liggghts_script"]

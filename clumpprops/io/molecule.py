@@ -14,7 +14,7 @@ import numpy as np
 
 from .._numtext import data_line_indices, fast_table, float_columns, strict_int
 from ._common import Clump, ClumpFileError
-from .readers import _make as make_clump, _number as number, _read_lines as read_lines, _stem as stem
+from .tables import _make as make_clump, _number as number, _read_lines as read_lines, _stem as stem
 
 __all__ = ["read_lammps"]
 
