@@ -12,6 +12,9 @@ from studies.timestep import collisions as tc
 
 ROOT = tc.ROOT
 TEST_SPEC = os.path.join(ROOT, "studies", "specs", "test.toml")
+# the dimer's collisions run on YADE 2023.02a (the isotropic route), which the Debian 13 root lacks
+needs_2023 = pytest.mark.skipif(not tc.native_yade_version().startswith("2023.02a"),
+                                reason="the dimer map runs on YADE 2023.02a (Debian 12); the Debian 13 root has 2025.2 only")
 
 
 def _dimer025_spec(tmp_path, material_extra=""):
@@ -33,6 +36,7 @@ def _read(path):
     return rows[0], [dict(zip(rows[0], r)) for r in rows[1:]]
 
 
+@needs_2023
 def test_a_tiny_spec_runs_end_to_end_with_the_issues_columns(tmp_path):
     out = tmp_path / "predictions.csv"
     assert predict.main([_dimer025_spec(tmp_path), "--pairs", "40", "--workdir", str(tmp_path / "w"),
@@ -49,6 +53,7 @@ def test_a_tiny_spec_runs_end_to_end_with_the_issues_columns(tmp_path):
     assert rows[1]["gas_relative"] == ""                                 # no gas run of mass_only there
 
 
+@needs_2023
 def test_the_dimer_reproduces_its_committed_collision_map_with_the_same_pairs_and_seed(tmp_path):
     with open(os.path.join(ROOT, "results", "collision_map", "case_map_d0.25.json")) as f:
         committed = json.load(f)
