@@ -18,6 +18,11 @@ RADII = np.array([0.6, 0.45, 0.5])
 RHO = 1000.0
 
 
+def _r(x):
+    """A number as the files write it (a Python float's repr, also for numpy 2's scalars)."""
+    return repr(float(x))
+
+
 def _props(centers):
     return methods.exact(centers, RADII, RHO), methods.summed(centers, RADII, RHO)
 
@@ -34,10 +39,10 @@ def _tensor6(I):
 def test_liggghts_summed_mass_is_an_overlap_error(tmp_path):
     ex, su = _props(CENTERS)
     rel = CENTERS - ex.com  # the sphere file about the centre of mass, as LIGGGHTS assumes
-    (tmp_path / "tri.multisphere").write_text("\n".join(" ".join(map(repr, [*c, r])) for c, r in zip(rel, RADII)) + "\n")
+    (tmp_path / "tri.multisphere").write_text("\n".join(" ".join(map(_r, [*c, r])) for c, r in zip(rel, RADII)) + "\n")
     script = (f"fix pts all particletemplate/multisphere 15485863 atom_type 1 density constant {RHO} nspheres 3 &\n"
-              f"  ntry 1000000 spheres file tri.multisphere scale 1.0 type 1 mass {su.mass!r} &\n"
-              "  inertia_tensor " + " ".join(map(repr, _tensor6(ex.extra["inertia"]))) + " use_density\n")
+              f"  ntry 1000000 spheres file tri.multisphere scale 1.0 type 1 mass {_r(su.mass)} &\n"
+              "  inertia_tensor " + " ".join(map(_r, _tensor6(ex.extra["inertia"]))) + " use_density\n")
     (tmp_path / "in.tri").write_text("# a deck\n" + script)
     (st,) = read_stated(tmp_path / "in.tri")
     assert st.mass == su.mass and np.allclose(st.clump.centers, rel)
@@ -52,10 +57,10 @@ def test_liggghts_inline_spheres_with_the_summed_tensor(tmp_path):
     ex, su = _props(CENTERS)
     rel = CENTERS - su.com
     _, su_rel = _props(rel)
-    spheres = " ".join(" ".join(map(repr, [*c, r])) for c, r in zip(rel, RADII))
+    spheres = " ".join(" ".join(map(_r, [*c, r])) for c, r in zip(rel, RADII))
     (tmp_path / "in.inline").write_text(
         f"fix t all particletemplate/multisphere 1 atom_type 1 density constant {RHO} nspheres 3 ntry 100000 "
-        f"spheres {spheres} type 1 mass {su.mass!r} inertia_tensor " + " ".join(map(repr, _tensor6(su_rel.extra["inertia"])))
+        f"spheres {spheres} type 1 mass {_r(su.mass)} inertia_tensor " + " ".join(map(_r, _tensor6(su_rel.extra["inertia"])))
         + " use_density\n")
     (st,) = read_stated(tmp_path / "in.inline")
     d = _findings(st, rel)
@@ -68,11 +73,11 @@ def test_lammps_molecule_inertia_about_the_origin(tmp_path):
     d = ex.com
     I0 = ex.extra["inertia"] + ex.mass * (d @ d * np.eye(3) - np.outer(d, d))  # about the file origin
     xx, yy, zz, yz, xz, xy = I0[0, 0], I0[1, 1], I0[2, 2], I0[1, 2], I0[0, 2], I0[0, 1]
-    lines = ["clump molecule", "", "3 atoms", f"{ex.mass!r} mass", "0 0 0 com",
-             " ".join(map(repr, [xx, yy, zz, yz, xz, xy])) + " inertia", "", "Coords", ""]
-    lines += [f"{i + 1} " + " ".join(map(repr, c)) for i, c in enumerate(CENTERS)]
+    lines = ["clump molecule", "", "3 atoms", f"{_r(ex.mass)} mass", "0 0 0 com",
+             " ".join(map(_r, [xx, yy, zz, yz, xz, xy])) + " inertia", "", "Coords", ""]
+    lines += [f"{i + 1} " + " ".join(map(_r, c)) for i, c in enumerate(CENTERS)]
     lines += ["", "Types", ""] + [f"{i + 1} 1" for i in range(3)]
-    lines += ["", "Diameters", ""] + [f"{i + 1} {2 * r!r}" for i, r in enumerate(RADII)]
+    lines += ["", "Diameters", ""] + [f"{i + 1} {_r(2 * r)}" for i, r in enumerate(RADII)]
     f = tmp_path / "tri.mol"
     f.write_text("\n".join(lines) + "\n")
     (st,) = read_stated(f)
@@ -110,12 +115,12 @@ def test_files_clumpprops_writes_agree_with_the_exact_values(tmp_path, engine):
 def test_rigid_infile_with_summed_values_through_the_cli(tmp_path, capsys):
     _, su = _props(CENTERS)
     I = su.extra["inertia"]
-    (tmp_path / "bodies.inf").write_text("# fix rigid infile\n1\n1 " + " ".join(map(repr, [
+    (tmp_path / "bodies.inf").write_text("# fix rigid infile\n1\n1 " + " ".join(map(_r, [
         su.mass, *su.com, I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])) + " 0 0 0 0 0 0 0 0 0\n")
     (body,) = read_rigid_infile(tmp_path / "bodies.inf")
     assert body.clump is None and np.allclose(body.reference, su.com)
     csv = tmp_path / "tri.csv"
-    csv.write_text("x,y,z,r\n" + "\n".join(",".join(map(repr, [*c, r])) for c, r in zip(CENTERS, RADII)) + "\n")
+    csv.write_text("x,y,z,r\n" + "\n".join(",".join(map(_r, [*c, r])) for c, r in zip(CENTERS, RADII)) + "\n")
     assert main([str(csv), "--stated", str(tmp_path / "bodies.inf"), "--ntry", "20000", "--seed", "2",
                  "--tolerance", "0.05"]) == 0
     out = capsys.readouterr().out
@@ -127,10 +132,10 @@ def test_the_audit_takes_the_density_a_liggghts_script_states(tmp_path, capsys):
     rho = 2500.0
     ex = methods.exact(CENTERS, RADII, rho)
     rel = CENTERS - ex.com
-    spheres = " ".join(" ".join(map(repr, [*c, r])) for c, r in zip(rel, RADII))
+    spheres = " ".join(" ".join(map(_r, [*c, r])) for c, r in zip(rel, RADII))
     (tmp_path / "in.rho").write_text(
         f"fix t all particletemplate/multisphere 1 atom_type 1 density constant {rho} nspheres 3 ntry 100000 "
-        f"spheres {spheres} type 1 mass {ex.mass!r} inertia_tensor " + " ".join(map(repr, _tensor6(ex.extra["inertia"])))
+        f"spheres {spheres} type 1 mass {_r(ex.mass)} inertia_tensor " + " ".join(map(_r, _tensor6(ex.extra["inertia"])))
         + " use_density\n")
     assert main([str(tmp_path / "in.rho"), "--ntry", "20000", "--seed", "1", "--tolerance", "0.05"]) == 0
     out = capsys.readouterr().out
@@ -167,10 +172,10 @@ def test_a_molecule_header_about_the_origin_is_named_with_its_order(tmp_path, or
     I0 = I0 * (1.0 + 0.003 * np.array([[1, -1, 1], [-1, 1, 1], [1, 1, -1]]))
     six = ([I0[0, 0], I0[1, 1], I0[2, 2], I0[1, 2], I0[0, 2], I0[0, 1]] if order == "voigt"
            else [I0[0, 0], I0[1, 1], I0[2, 2], I0[0, 1], I0[0, 2], I0[1, 2]])
-    rows = "\n".join(f"{i + 1} {c[0]!r} {c[1]!r} {c[2]!r}" for i, c in enumerate(shifted))
-    dia = "\n".join(f"{i + 1} {2 * r!r}" for i, r in enumerate(RADII))
-    (tmp_path / "m.data").write_text(f"made elsewhere\n\n3 atoms\n\n{ex.mass!r} mass\n\n" + " ".join(map(repr, d))
-                                     + " com\n\n" + " ".join(map(repr, six)) + " inertia\n\nCoords\n\n" + rows
+    rows = "\n".join(f"{i + 1} {_r(c[0])} {_r(c[1])} {_r(c[2])}" for i, c in enumerate(shifted))
+    dia = "\n".join(f"{i + 1} {_r(2 * r)}" for i, r in enumerate(RADII))
+    (tmp_path / "m.data").write_text(f"made elsewhere\n\n3 atoms\n\n{_r(ex.mass)} mass\n\n" + " ".join(map(_r, d))
+                                     + " com\n\n" + " ".join(map(_r, six)) + " inertia\n\nCoords\n\n" + rows
                                      + "\n\nDiameters\n\n" + dia + "\n")
     (st,) = read_stated(tmp_path / "m.data")
     found = [f for f in _findings(st, shifted)["findings"] if f.startswith("the tensor is")]

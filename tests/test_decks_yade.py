@@ -9,6 +9,7 @@ test checks against I w from the exact values.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -45,6 +46,12 @@ def test_the_yade_deck_holds_the_exact_values_and_angular_momentum(tmp_path):
     assert np.max(np.abs(I0 - exact.inertia)) < 1e-10 * np.max(exact.principal_moments)
     L = [np.array(list(map(float, row[row.index("angmom") + 1:row.index("angmom") + 4]))) for row in rows]
     assert np.linalg.norm(L[0] - exact.inertia @ w) < 1e-10 * np.linalg.norm(L[0])
-    assert np.linalg.norm(L[1] - L[0]) < 1e-8 * np.linalg.norm(L[0]) and rows[1][1] == "500"
+    # YADE 2023.02a integrates angMom itself: conserved to round-off.  YADE 2025.2 integrates angVel
+    # (delValle2023), whose angular momentum carries an O(|w| dt) offset that halves with dt, not a
+    # drift (../shared/notes/yade-facts.md): the bound is that offset's.
+    dt = float(re.search(r"VELOCITY, SPIN, STEPS, DT = .*, ([0-9.eE+-]+)\n", (tmp_path / "out" / "asym_deck_yade.py")
+                         .read_text()).group(1))
+    tol = 1e-8 if os.environ.get("CLUMPPROPS_IN_DEBIAN13") != "1" else 2.0 * np.linalg.norm(w) * dt
+    assert np.linalg.norm(L[1] - L[0]) < tol * np.linalg.norm(L[0]) and rows[1][1] == "500"
     summed = mass_properties(ASYM_C, ASYM_R, density=RHO, method="sum")
     assert np.linalg.norm(summed.inertia @ w - L[0]) > 1e-3 * np.linalg.norm(L[0])  # the summed clump's would differ

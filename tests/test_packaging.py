@@ -61,3 +61,13 @@ def test_marker_sets_name_existing_test_files_and_library_tests_neither_run_yade
     for marker, files in conftest.MARKERS.items():
         assert files <= here, (marker, files - here)
     assert not conftest.LIBRARY & (conftest.YADE | conftest.SLOW)
+
+
+def test_every_subpackage_is_listed_for_the_wheel():
+    """setuptools builds the wheel from pyproject's explicit package list: a subpackage missing
+    from it installs without that folder (a wheel user gets ModuleNotFoundError)."""
+    import tomllib
+    root = Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(root).parts) for p in (root / "clumpprops").rglob("__init__.py")}
+    assert found == listed, (found - listed, listed - found)
