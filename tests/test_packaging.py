@@ -68,6 +68,8 @@ def test_every_subpackage_is_listed_for_the_wheel():
     from it installs without that folder (a wheel user gets ModuleNotFoundError)."""
     import tomllib
     root = Path(__file__).resolve().parents[1]
+    if not (root / "pyproject.toml").exists():
+        pytest.skip("outside the source tree: the wheel test's own imports find a missing subpackage")
     listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     found = {".".join(p.parent.relative_to(root).parts) for p in (root / "clumpprops").rglob("__init__.py")}
     assert found == listed, (found - listed, listed - found)
