@@ -36,12 +36,20 @@ def committed_records(root=S.ROOT):
     return read_records(os.path.join(root, "results", "*", "runs", "*.json"))
 
 
+def bodies_and_steps_run(rec):
+    """(bodies, integration steps) a recorded run really made: a cooling run that stopped early
+    (``run.cooling_stop``) records ``steps_done``; other runs made every planned step."""
+    bodies, steps = bodies_and_steps(rec["params"])
+    done = (rec.get("facts") or {}).get("steps_done")
+    return bodies, (float(done) if done else steps)
+
+
 def seconds_per_body_step(recs):
     """Median CPU seconds per body and integration step over the records (None without any)."""
     xs = []
     for rec in recs.values():
         try:
-            bodies, steps = bodies_and_steps(rec["params"])
+            bodies, steps = bodies_and_steps_run(rec)
         except (KeyError, ValueError, OSError):
             continue
         xs.append(float(rec.get("cpu_s") or rec["wall_s"]) / (bodies * steps))
