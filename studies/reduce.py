@@ -99,7 +99,7 @@ def reduce_run(frames, run_input, cuts, max_lag_s, energy_tol, momentum_tol):
            "energy": energy_series(fr), "windows": []}
     if "e_dissipated" in fr:       # a cooling run: the HCS series its analysis needs (studies.hcs)
         from .hcs import series
-        hcs = series({**fr, **({"pos0": frames["pos0"]} if "pos0" in frames else {})}, run_input)
+        hcs = series(frames, run_input)
         out["hcs"] = {k: ([float(f"{x:.10g}") for x in v] if isinstance(v, np.ndarray) else v) for k, v in hcs.items()}
     t = fr["t"]
     for c in sorted(set(float(x) for x in cuts)):

@@ -25,8 +25,8 @@ multiplies coordinates and radii (0.001 for files in mm).
 
 Speed: each reader parses all its data lines at once with numpy's C reader, which uses
 the same number grammar; only if numpy refuses a line, or a value is not finite or not
-positive where it must be, the line-by-line validator (``_csv_rows``, ``_mol_rows``, ...)
-reads the file again to raise the first error with its line.  A file of 10**6 spheres
+positive where it must be, the line-by-line validator (``_csv_rows`` in :mod:`clumpprops.io.tables`,
+``_mol_rows`` in :mod:`clumpprops.io.molecule`, ...) reads the file again to raise the first error with its line.  A file of 10**6 spheres
 reads in seconds, in memory a few times the file's size (benchmarks/bench_io.py
 --read-lines).
 """
@@ -39,7 +39,7 @@ from typing import List, Optional
 from ._common import Clump, ClumpFileError
 from .detect import FORMATS, detect_format, sniff_format
 # the table readers live in .tables (the other readers share its helpers); named here as before
-from .tables import _csv_rows, _liggghts_rows, _mclump_rows, read_csv, read_liggghts, read_mclump, read_yade  # noqa: F401
+from .tables import read_csv, read_liggghts, read_mclump, read_yade
 
 __all__ = ["FORMATS", "detect_format", "read", "sniff_format"]
 
