@@ -25,7 +25,8 @@ spheres        ``[spheres] mass``      a sphere of ``[spheres] diameter`` (no to
 Rotation: a *linear* clump (all centres on one line) with frictionless contacts and zero spin
 about its axis moves exactly like a body of isotropic inertia I_perp (every contact force passes
 through the axis), so it runs as YADE's non-aspherical body on any YADE; its rotational
-degrees of freedom are 2.  Any other clump is a full aspherical rigid body (3 rotational
+degrees of freedom are 2.  With friction a tangential force has a torque about the axis, so a
+linear clump then runs as any other clump does.  Any other clump is a full aspherical rigid body (3 rotational
 degrees of freedom) and needs a YADE with a conservative aspherical integrator (>= 2025,
 ``rotAlgorithm='delValle2023'``).
 """
@@ -71,15 +72,17 @@ def dimer_properties(method: str):
     return p["mass"], p["volume"], pm[0], pm[2], method
 
 
-def resolve_case(props, case, spheres=None):
+def resolve_case(props, case, spheres=None, friction=0.0):
     """Body of one case: what the YADE script builds and which mass and inertia it gets.
 
     ``props``: :func:`studies.shapes.properties` of the shape; ``spheres``: the spec's
     ``[spheres]`` table (``diameter`` in m or ``"equal_volume"``; ``mass`` ``"exact"`` (the
-    exact clump mass) or ``"density"`` (the sphere's own volume x density)) with ``density``.
+    exact clump mass) or ``"density"`` (the sphere's own volume x density)) with ``density``;
+    ``friction``: the contact's Coulomb coefficient (with friction a linear clump takes the
+    aspherical route).
 
     Returns a dict: ``body`` ("clump" | "sphere"); ``mass`` kg; ``moments`` (3,) kg m^2 (the
-    principal moments the body integrates with; isotropic for linear clumps and spheres);
+    principal moments the body integrates with; isotropic for frictionless linear clumps and spheres);
     ``route`` ("isotropic" | "aspherical"); ``builder`` ("appendClumped" | "clumpprops");
     ``rot_dof`` (0, 2 or 3); ``radius`` (spheres only).
     """
@@ -102,7 +105,7 @@ def resolve_case(props, case, spheres=None):
     mass = props[msrc]["mass"]
     pm = props[isrc]["principal_moments"]
     com_shift = np.linalg.norm(np.asarray(props["sum"]["com"])) / max(props["radii"])
-    if props["linear"]:
+    if props["linear"] and not friction:
         i_perp = pm[2]
         moments = [i_perp] * 3
         route, dof = "isotropic", 2
@@ -168,7 +171,7 @@ def random_sequential_positions(rng, n, box, dmin):
 
 def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass, exact_inertia=None,
                   case_inertia=None, protocol="paired", energy_per_particle=ENERGY_PER_PARTICLE,
-                  start="zero_spin", linear=True, gap=None, spin_pairing="same"):
+                  start="zero_spin", linear=True, gap=None, spin_pairing="same", spin_ratio=0.0):
     """Initial state of one run: centres (n, 3) m in [0, box), orientations (n, 3, 3) (body to
     world), velocities (n, 3) m/s and angular velocities (n, 3) rad/s (world frame).
 
@@ -202,6 +205,11 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
       about -2.3 % in D unrelated to collisions (docs/granular_gas.md).
 
     For ``exact`` (and, for linear clumps, for ``equal_energy``) the two give the same state.
+
+    A sphere gas gets no spin from ``start``.  ``spin_ratio`` > 0 gives its spheres Gaussian
+    angular velocities (the same normal draws a clump's spins use) whose rotational energy is
+    ``spin_ratio`` times the translational: T_rot / T_tr = ``spin_ratio`` at t = 0, so that a rough
+    gas can approach its HCS ratio from above as well as from below (zero spin).
     """
     if start not in STARTS:
         raise ValueError(f"unknown start {start!r}")
@@ -244,4 +252,7 @@ def initial_state(seed, n_particles, box, bounding_radius, case_res, exact_mass,
             e_rot *= case_res["mass"] / m_scale
         wb *= np.sqrt(e_rot / (0.5 * np.einsum("ni,ij,nj->", wb, I_scale, wb)))
         angvel = np.einsum("nij,nj->ni", ori, wb)
+    elif spin_ratio > 0 and case_res["body"] == "sphere":
+        e_rot = spin_ratio * 0.5 * m_scale * np.sum(vel ** 2)
+        angvel = z * np.sqrt(e_rot / (0.5 * case_res["moments"][0] * np.sum(z ** 2)))
     return pos, ori, vel, angvel

@@ -23,7 +23,7 @@ import tomllib
 import numpy as np
 
 from . import gas_model, shapes
-from .spec_checks import (SCHEDULES, YADE_VERSIONS, SpecError, check_analysis_window, check_contact_route,  # noqa: F401
+from .spec_checks import (SCHEDULES, YADE_VERSIONS, SpecError, check_analysis_window,  # noqa: F401
                           check_one_body, check_placement, check_table, check_value)
 
 # Bump when the physics of a run changes (what the YADE script builds, records or integrates,
@@ -49,7 +49,9 @@ SCHEMA = {
                  "friction": (_NUM, False, None, "nonneg")},
     "gas": {"n_particles": (int, True, None, "pos"), "volume_fraction": (_NUM, True, None, "frac"),
             "energy_per_particle": (_NUM, True, None, "pos"), "start": (str, False, "zero_spin", "start"),
-            "spin_pairing": (str, False, "own", "spin_pairing")},
+            "spin_pairing": (str, False, "own", "spin_pairing"),
+            # sphere gases: T_rot / T_tr at the start (spins matter only with friction); absent: no spin
+            "spin_ratio": (_NUM, False, None, "nonneg")},
     # t_end, rec_interval, dt_factor and the analysis' times default to values from the gas itself
     # (None here; :func:`physics_defaults`)
     "run": {"t_end": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
@@ -65,7 +67,8 @@ SCHEMA = {
                 "mass": (str, False, "exact", "smass")},
 }
 # keys a spec may leave out without a default: absent, they are absent from the resolved spec too
-OPTIONAL_KEYS = {"material": ("restitution", "tangential_restitution", "friction"), "run": ("cooling_stop",)}
+OPTIONAL_KEYS = {"material": ("restitution", "tangential_restitution", "friction"), "run": ("cooling_stop",),
+                 "gas": ("spin_ratio",)}
 SHAPE_KEYS = {"kind": (str, True, None, "kind"), "sphere_diameter": (_NUM, False, None, "pos"),
               "overlap": (_NUM, False, None, "pos"), "path": (str, False, None, None),
               "scale": (_NUM, False, 1.0, "pos")}
@@ -76,7 +79,7 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
               "youngs_modulus": (_NUM, False, None, "pos"), "t_end": (_NUM, False, None, "pos"),
               "dt_factor": (_NUM, False, None, "pos"), "start": (str, False, None, "start"),
               "energy_per_particle": (_NUM, False, None, "pos"), "rec_interval": (_NUM, False, None, "pos"),
-              "n_particles": (int, False, None, "pos"),
+              "n_particles": (int, False, None, "pos"), "spin_ratio": (_NUM, False, None, "nonneg"),
               "restitution": (_NUM, False, None, "restitution"),
               "tangential_restitution": (_NUM, False, None, "restitution"),
               "friction": (_NUM, False, None, "nonneg"), "cooling_stop": (_NUM, False, None, "cooling_stop"),
@@ -86,7 +89,8 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
 OVERRIDES = {"youngs_modulus": "material", "t_end": "run", "dt_factor": "run", "rec_interval": "run",
              "start": "gas", "energy_per_particle": "gas", "n_particles": "gas", "restitution": "material",
-             "tangential_restitution": "material", "friction": "material", "cooling_stop": "run"}
+             "tangential_restitution": "material", "friction": "material", "cooling_stop": "run",
+             "spin_ratio": "gas"}
 
 
 def analysis_windows(spec):
@@ -183,10 +187,11 @@ def _validate_group(where, g, spec):
     props = shapes.properties(spec["shapes"][gd["shape"]], spec["material"]["density"])
     sph = dict(spec["spheres"], density=spec["material"]["density"])
     mat = dict(spec["material"], **{k: gd[k] for k in OPTIONAL_KEYS["material"] if gd[k] is not None})
-    check_contact_route(f"{where}.cases", mat,
-                        {c: gas_model.resolve_case(props, c, sph) for c in gd["cases"]})
-    if not props["linear"] and spec["study"]["yade"] == "2023.02a" and any(c != "spheres" for c in gd["cases"]):
-        raise SpecError(f"{where}.shape: {gd['shape']!r} is not a linear clump and needs full rigid-body "
+    routes = {c: gas_model.resolve_case(props, c, sph, mat.get("friction") or 0.0)["route"] for c in gd["cases"]}
+    if spec["study"]["yade"] == "2023.02a" and "aspherical" in routes.values():
+        why = ("is not a linear clump" if not props["linear"] else
+               f"has friction (material.friction = {mat['friction']:g}: a tangential force turns a linear clump about its axis)")
+        raise SpecError(f"{where}.shape: {gd['shape']!r} {why} and needs full rigid-body "
                         f"rotation, but study.yade = '2023.02a' has only Fincham 1992's aspherical "
                         f"integrator, which gains energy; set study.yade = '2025.2'")
     return gd
@@ -297,7 +302,7 @@ def resolve_run(spec, g, case, seed):
     shape = spec["shapes"][g["shape"]]
     props = shapes.properties(shape, mat["density"])
     spheres = dict(spec["spheres"], density=mat["density"])
-    cres = gas_model.resolve_case(props, case, spheres)
+    cres = gas_model.resolve_case(props, case, spheres, mat.get("friction") or 0.0)
     protocol = gas_model.effective_protocol(cres, props["exact"]["mass"], g["protocol"])
     spin_pairing = gas.pop("spin_pairing", "same")
     p = {
@@ -315,7 +320,7 @@ def resolve_run(spec, g, case, seed):
         p["run"]["cooling_stop"] = float(run["cooling_stop"])
     if case == "spheres":
         p["spheres"] = {"diameter": spec["spheres"]["diameter"], "mass": spec["spheres"]["mass"]}
-    if spin_pairing == "own" and spin_pairing_matters(p, cres, props["linear"]):
+    if spin_pairing == "own" and spin_pairing_matters(p, cres, cres["route"] == "isotropic"):
         p["gas"]["spin_pairing"] = "own"
     return p
 
@@ -391,7 +396,7 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     shape = p["shape"]["definition"]
     props = shapes.properties(shape, mat["density"])
     spheres = dict(p.get("spheres", {}), density=mat["density"])
-    cres = gas_model.resolve_case(props, p["case"], spheres)
+    cres = gas_model.resolve_case(props, p["case"], spheres, mat.get("friction", 0.0))
     ex = props["exact"]
     n = int(gas["n_particles"])
     box = gas_model.box_length(n, ex["volume"], gas["volume_fraction"])
@@ -399,7 +404,8 @@ def run_input(spec_or_params, params=None, record=True, progress_period=20.0):
     case_tensor = np.asarray(props[cres["inertia_source"] or "exact"]["inertia"])
     pos, ori, vel, angvel = gas_model.initial_state(
         p["seed"], n, box, rb, cres, ex["mass"], np.asarray(ex["inertia"]), case_tensor, p["protocol"],
-        gas["energy_per_particle"], gas["start"], props["linear"], spin_pairing=gas.get("spin_pairing", "same"))
+        gas["energy_per_particle"], gas["start"], props["linear"] and cres["route"] == "isotropic", spin_pairing=gas.get("spin_pairing", "same"),
+        spin_ratio=float(gas.get("spin_ratio", 0.0)))
     dt = time_step(p, props)
     n_steps = int(round(run["t_end"] / dt))
     rec_steps = max(1, int(round(run["rec_interval"] / dt)))

@@ -77,19 +77,6 @@ def check_value(where, v, typ, check):
             raise SpecError(f"{where}: must be >= 0, got {v!r}")
 
 
-def check_contact_route(where, mat, cases_resolved):
-    """Friction needs full rigid-body rotation for clumps: a tangential force exerts a torque about a
-    linear clump's axis, which the isotropic route (``aspherical = False``) does not integrate.
-    ``mat``: the group's material table; ``cases_resolved``: ``{case: resolve_case(...)}``."""
-    if not mat.get("friction"):
-        return
-    for case, cres in cases_resolved.items():
-        if cres["body"] == "clump" and cres["route"] == "isotropic":
-            raise SpecError(f"{where}: material.friction = {mat['friction']:g} with case {case!r} of a linear clump, "
-                            f"whose isotropic route is exact only without friction; use YADE 2025.2's aspherical "
-                            f"route (study.yade = '2025.2') or friction = 0")
-
-
 def _tname(typ):
     names = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a table"}
     ts = _flat(typ)

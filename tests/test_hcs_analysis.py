@@ -129,13 +129,47 @@ def test_spec_checks_of_the_contact_keys():
             S.validate(raw)
 
 
-def test_friction_is_refused_on_the_isotropic_route():
+def test_friction_turns_a_linear_clump_aspherical_and_needs_yade_2025():
     raw = _raw()
-    raw["groups"][1]["cases"] = ["spheres", "exact"]            # the dimer: a linear clump, isotropic route
-    with pytest.raises(S.SpecError, match="aspherical"):
+    raw["groups"][1]["cases"] = ["spheres", "exact"]            # the dimer: a linear clump
+    with pytest.raises(S.SpecError, match="has friction .* set study.yade = '2025.2'"):
         S.validate(raw)
     raw["groups"][1]["friction"] = 0.0
     S.validate(raw)
+    raw["groups"][1]["friction"] = 0.5
+    raw["groups"][0]["cases"] = ["exact"]
+    raw["study"]["yade"] = "2025.2"
+    runs = {(r["params"]["case"], "friction" in r["params"]["material"]): r["params"] for r in S.runs(S.validate(raw))}
+    rough, smooth = S.run_input(runs[("exact", True)]), S.run_input(runs[("exact", False)])
+    assert (rough["body"]["route"], rough["rot_dof"]) == ("aspherical", 3)
+    assert (smooth["body"]["route"], smooth["rot_dof"]) == ("isotropic", 2)
+    # the frictional dimer starts with spin about its axis too (3 rotational degrees of freedom in
+    # equipartition); the frictionless one with none
+    ori = np.asarray(rough["initial"]["ori"]).reshape(-1, 3, 3)
+    axial = np.einsum("nij,ni->nj", ori, np.asarray(rough["initial"]["angvel"]))[:, 2]
+    assert np.all(np.abs(axial) > 0)
+    ori = np.asarray(smooth["initial"]["ori"]).reshape(-1, 3, 3)
+    axial = np.einsum("nij,ni->nj", ori, np.asarray(smooth["initial"]["angvel"]))[:, 2]
+    assert np.max(np.abs(axial)) < 1e-12 * np.max(np.abs(smooth["initial"]["angvel"]))
+    # the moments are the exact principal ones: the axial one is the smallest, not I_perp
+    m = rough["body"]["moments"]
+    assert m[0] < m[1] == pytest.approx(m[2])
+
+
+def test_spin_ratio_starts_a_sphere_gas_at_that_temperature_ratio():
+    raw = _raw()
+    raw["groups"][1]["spin_ratio"] = 1.0
+    rough_spun = [r["params"] for r in S.runs(S.validate(raw))][1]
+    rin = S.run_input(rough_spun)
+    m, i0 = rin["body"]["mass"], rin["case"]["moments"][0]
+    e_tr = 0.5 * m * np.sum(np.asarray(rin["initial"]["vel"]) ** 2)
+    e_rot = 0.5 * i0 * np.sum(np.asarray(rin["initial"]["angvel"]) ** 2)
+    assert e_rot / e_tr == pytest.approx(1.0, rel=1e-12)
+    # the translational start is the one without spins, and the key is absent where not given
+    plain = [r["params"] for r in S.runs(S.validate(_raw()))][1]
+    assert "spin_ratio" not in plain["gas"] and rough_spun["gas"]["spin_ratio"] == 1.0
+    assert np.array_equal(S.run_input(plain)["initial"]["vel"], rin["initial"]["vel"])
+    assert not np.any(S.run_input(plain)["initial"]["angvel"])
 
 
 def test_contact_keys_reach_the_run_file_only_when_given():
