@@ -339,7 +339,7 @@ def series(frames, run_input, cells_per_side=4):
             "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0))}
 
 
-def analyse_series(s, t_transient=0.0):
+def analyse_series(s, t_transient=0.0, fit_from=0.0):
     """The HCS quantities from a run's :func:`series` (or the ``hcs`` part of its reduced record).
 
     Parameters
@@ -347,7 +347,10 @@ def analyse_series(s, t_transient=0.0):
     s : mapping
         :func:`series` of the run.
     t_transient : float, optional
-        Frames before it are left out of the T_rot / T_tr average (s).
+        Frames before it are left out of the T_rot / T_tr average and the MSD fit (s).
+    fit_from : float, optional
+        Frames before it are left out of Haff's fit (s): 0 for a gas that starts in its HCS
+        (smooth spheres), the transient for one that does not (clumps from equipartition).
 
     Returns
     -------
@@ -360,7 +363,7 @@ def analyse_series(s, t_transient=0.0):
     f_rot = int(s["rot_dof"])
     t_tr, t_rot = temperatures(e_trans, e_rot, int(s["n_particles"]), f_rot)
     t_hom = homogeneous_until(t, np.asarray(s["count_ratio"], float), int(s["cells_per_side"]) ** 3)
-    haff = fit_haff(t, t_tr, 0.0, t_hom)
+    haff = fit_haff(t, t_tr, fit_from, t_hom)
     rot = (temperature_ratio(t, t_tr, t_rot, t_transient, t_hom)
            if np.max(e_rot) > 1e-9 * e_trans[0] and t_transient < t_hom else None)
     msd = fit_scaled_msd(t, np.asarray(s["msd"], float), haff["tau0"], min(t_transient, t[-4]), t_hom)

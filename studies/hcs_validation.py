@@ -10,7 +10,10 @@ sweep writes (:func:`load_records`, their ``hcs`` part), or from raw frames
 * ``diffusion``: D0 from the scaled-time MSD against Brilliantov and Poeschel's
   T0 / (m (nu_D - zeta0 / 2)) (:func:`studies.hcs_theory.hcs_diffusion`) for smooth spheres;
 * ``temperature_ratio``: T_rot / T_tr against a given theory value for rough spheres (the
-  two-temperature balance of the measured collision rule, docs/hcs.md).
+  two-temperature balance of the measured collision rule, docs/hcs.md).  The ratio relaxes to its
+  HCS value about as slowly as the gas cools, so a run ends before it has settled.  When a seed was
+  run twice, started at zero spin (below the HCS value) and spinning (above it), the two runs
+  bracket it, and :func:`bracketed_ratio` extrapolates the pair to the settled value.
 
 Intervals are Student-t over seeds (:func:`studies.intervals.t_interval`).
 """
@@ -19,6 +22,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import re
 import sys
 
 import numpy as np
@@ -47,14 +51,16 @@ def load_raw(raw_dir):
     Returns
     -------
     list of dict
-        :func:`studies.hcs.series` of each run.
+        :func:`studies.hcs.series` of each run (with ``seed`` where the file name has ``-sN``).
     """
     out = []
     for path in sorted(glob.glob(os.path.join(raw_dir, "*.npz"))):
         with open(path[:-4] + ".run.json") as f:
             rin = json.load(f)
         with np.load(path) as z:
-            out.append(hcs.series({k: z[k] for k in z.files}, rin))
+            s = hcs.series({k: z[k] for k in z.files}, rin)
+        m = re.search(r"-s(\d+)(-|$)", os.path.basename(path)[:-4])
+        out.append(dict(s, seed=int(m.group(1))) if m else s)
     return out
 
 
@@ -69,14 +75,14 @@ def load_records(results_dir):
     Returns
     -------
     list of dict
-        The ``hcs`` part of every record that has one (dissipative runs).
+        The ``hcs`` part of every record that has one (dissipative runs), with the run's ``seed``.
     """
     out = []
     for path in sorted(glob.glob(os.path.join(results_dir, "runs", "*.json"))):
         with open(path) as f:
             rec = json.load(f)
         if "hcs" in rec:
-            out.append(rec["hcs"])
+            out.append(dict(rec["hcs"], seed=rec.get("seed")))
     return out
 
 
@@ -98,6 +104,60 @@ def smooth_theory(s):
     th = hcs.haff_theory(n, float(s["box_length"]), float(s["diameter"]), float(s["mass"]), t0, e)
     nu_d = hcs_theory.velocity_relaxation_rate(e, -1.0, KAPPA_SPHERE, th["omega0"])
     return {"zeta0": th["zeta0"], "d0": hcs_theory.hcs_diffusion(t0, float(s["mass"]), nu_d, th["zeta0"])}
+
+
+def start_ratio(s):
+    """T_rot / T_tr of a run's first frame (0 for a gas started without spin).
+
+    Parameters
+    ----------
+    s : mapping
+        The run's :func:`studies.hcs.series`.
+
+    Returns
+    -------
+    float
+    """
+    t_tr, t_rot = hcs.temperatures(np.asarray(s["e_trans"][:1], float), np.asarray(s["e_rot"][:1], float),
+                                   int(s["n_particles"]), int(s["rot_dof"]))
+    return float(t_rot[0] / t_tr[0])
+
+
+def bracketed_ratio(below, above, t_lo):
+    """The settled HCS ratio r from two runs of one seed that approach it from both sides.
+
+    If T_rot / T_tr relaxes linearly, r(t) - r = (r(0) - r) E(t) with one decay E(t) for both runs,
+    then at every time r = (r_a r0_b - r_b r0_a) / (r_a - r_b + r0_b - r0_a) (subscripts: the run
+    from below and from above, 0 their starts).  The estimate is its mean over the frames from
+    ``t_lo`` to the end of the shorter run (or of its homogeneous window).  That it does not drift
+    with ``t_lo`` is the check of the linear relaxation (docs/hcs.md).
+
+    Parameters
+    ----------
+    below, above : mapping
+        :func:`studies.hcs.series` of the two runs (same seed, starts r0_b < r0_a).
+    t_lo : float
+        Start of the window (s).
+
+    Returns
+    -------
+    float
+    """
+    ends, rs, r0 = [], [], []
+    for s in (below, above):
+        t = np.asarray(s["t"], float)
+        t_tr, t_rot = hcs.temperatures(np.asarray(s["e_trans"], float), np.asarray(s["e_rot"], float),
+                                       int(s["n_particles"]), int(s["rot_dof"]))
+        ends.append(min(t[-1], hcs.homogeneous_until(t, np.asarray(s["count_ratio"], float),
+                                                     int(s["cells_per_side"]) ** 3)))
+        rs.append((t, t_rot / t_tr))
+        r0.append(float(t_rot[0] / t_tr[0]))
+    (tb, rb), (ta, ra) = rs
+    sel = (tb >= t_lo - 1e-12) & (tb <= min(ends) + 1e-12)
+    if sel.sum() < 4:
+        raise ValueError(f"the window [{t_lo:g}, {min(ends):g}] s holds {int(sel.sum())} frames; need >= 4")
+    rb_w, ra_w = rb[sel], np.interp(tb[sel], ta, ra)
+    return float(np.mean((ra_w * r0[0] - rb_w * r0[1]) / (ra_w - rb_w + r0[0] - r0[1])))
 
 
 def _row(observable, e, mu, values, theory, name):
@@ -143,7 +203,16 @@ def rows(runs, ratio_theory=None, t_transient=0.0):
             out.append(_row("diffusion", e, mu, [a["msd"]["d0"] for _, a in items],
                             np.mean([t["d0"] for t in th]), "HCS self-diffusion (Brilliantov and Poeschel 2000)"))
         else:
-            ratios = [a["ratio"]["ratio"] for _, a in items if a["ratio"] is not None]
+            by_seed = {}
+            for s, _ in items:
+                if s.get("seed") is not None:
+                    by_seed.setdefault(s["seed"], []).append(s)
+            sides = {k: sorted(v, key=start_ratio) for k, v in by_seed.items()}
+            both = sorted(k for k, v in sides.items() if start_ratio(v[-1]) - start_ratio(v[0]) > 0.1)
+            if both:            # seeds run from both sides: the bracketed estimate
+                ratios = [bracketed_ratio(sides[k][0], sides[k][-1], t_transient) for k in both]
+            else:
+                ratios = [a["ratio"]["ratio"] for _, a in items if a["ratio"] is not None]
             theory = ratio_theory(e, mu) if ratio_theory is not None else float("nan")
             out.append(_row("temperature_ratio", e, mu, ratios, theory,
                             "two-temperature balance of the measured collision rule (Huthmann and Zippelius 1997)"))

@@ -63,14 +63,15 @@ def case_input(base, shape, case, protocol):
     """The exact collision courses ``base`` (``studies.timestep.collisions.make_pairs``) with the body and the state of
     ``case`` in ``protocol`` (see the module docstring).  Returns (input, kT/m ratio to exact)."""
     props = shp.properties(shape, tc.MATERIAL["density"])
-    ex = gm.resolve_case(props, "exact")
+    mu = tc.MATERIAL.get("friction", 0.0)
+    ex = gm.resolve_case(props, "exact", friction=mu)
     lam = 1.0
     if case == "mass_scaled":
         lam = props["sum"]["mass"] / props["exact"]["mass"]
         cr = dict(ex, mass=ex["mass"] * lam, moments=[lam * m for m in ex["moments"]])
         i_body_c = np.asarray(props["exact"]["inertia"]) * lam
     else:
-        cr = gm.resolve_case(props, case)
+        cr = gm.resolve_case(props, case, friction=mu)
         i_body_c = np.asarray(props[gm.CASE_SOURCES[case][1]]["inertia"])   # "exact" or "sum"
     i_body_e = np.asarray(props["exact"]["inertia"])
     m_e, m_c = ex["mass"], cr["mass"]

@@ -12,11 +12,12 @@ stands the gas interval where the committed gas runs have one (``results/effects
 Writes ``results/predictions.csv`` (columns ``COLUMNS``); never overwrites another file than
 ``--out``.
 
-Inelastic and frictional contacts (spec keys ``restitution`` and ``friction`` under
-[material], defaults 1.0 and 0.0) make the homogeneous cooling state the gas's natural state;
-its observables follow from binary collisions by the two-temperature balance of
-``studies.predict_hcs`` (validated on spheres against ``studies.hcs_theory``).  The clumps' YADE
-route for those contacts is not built yet: a spec with them stops with a one-line error.
+Inelastic and frictional contacts (spec keys ``restitution`` and ``friction`` under [material] or
+in a group) make the homogeneous cooling state the gas's natural state: for them each case's effect
+on the cooling rate, on T_rot / T_tr and on the HCS self-diffusion comes from the two-temperature
+balance of YADE binary collisions (``studies.predict_cooling``), beside the cooling gas runs'
+intervals (``results/hcs_effects.csv``).  Such predictions are of the paired protocol: the cases
+share the translational velocities, each its spins at its own temperature.
 """
 from __future__ import annotations
 
@@ -30,38 +31,48 @@ import time
 
 import numpy as np
 
-from . import maps
+from . import maps, predict_cooling
 from . import shapes as shp
 from .timestep import collisions as tc
 
 ROOT = tc.ROOT
 OUT = os.path.join(ROOT, "results", "predictions.csv")
 EFFECTS = os.path.join(ROOT, "results", "effects.csv")
+HCS_EFFECTS = os.path.join(ROOT, "results", "hcs_effects.csv")
 CASES = ("uncorrected", "mass_only", "inertia_only")       # each predicted against exact
 COLUMNS = ["shape", "youngs_modulus", "restitution", "friction", "case", "observable", "predicted",
            "predicted_se", "cpu_s", "gas_relative", "gas_ci_low", "gas_ci_high"]
 
 
-def contact_law(spec):
-    """The spec's contact law: (youngs_modulus Pa, restitution, friction); elastic and frictionless
-    unless [material] says otherwise.
+def contact_law(spec, group=None):
+    """A group's contact law: (youngs_modulus Pa, restitution, friction); elastic and frictionless
+    unless [material] or the group says otherwise.
 
     Parameters
     ----------
     spec : dict
         A validated study spec (``studies.spec.load``).
+    group : dict, optional
+        One of its groups (its overrides apply); None: the spec's [material].
 
     Returns
     -------
     tuple of float
         (youngs_modulus, restitution, friction).
     """
-    mat = spec["material"]
+    from . import spec as S
+
+    mat = S.group_tables(spec, group)[0] if group is not None else spec["material"]
     return float(mat["youngs_modulus"]), float(mat.get("restitution", 1.0)), float(mat.get("friction", 0.0))
 
 
+def is_elastic(law):
+    """True for an elastic, frictionless contact law (restitution 1, friction 0)."""
+    return law[1] == 1.0 and law[2] == 0.0
+
+
 def shape_cases(spec):
-    """The (case, protocol) pairs of ``CASES`` the spec's groups name for each shape.
+    """The (case, protocol) pairs of ``CASES`` the spec's groups name for each shape and contact law.
 
     Parameters
     ----------
@@ -71,14 +82,17 @@ def shape_cases(spec):
     Returns
     -------
     dict
-        shape name -> list of (case, protocol), in the groups' order.
+        (shape name, contact law) -> list of (case, protocol), in the groups' order.  A dissipative
+        law's cases are all paired (``studies.predict_cooling``).
     """
     out = {}
     for g in spec["groups"]:
-        todo = out.setdefault(g["shape"], [])
+        law = contact_law(spec, g)
+        todo = out.setdefault((g["shape"], law), [])
         for case in g["cases"]:
-            if case in CASES and (case, g["protocol"]) not in todo:
-                todo.append((case, g["protocol"]))
+            prot = g["protocol"] if is_elastic(law) else "paired"
+            if case in CASES and (case, prot) not in todo:
+                todo.append((case, prot))
     return out
 
 
@@ -114,10 +128,32 @@ def gas_intervals(path=EFFECTS):
     return out
 
 
-def yade_for(shape, density):
-    """The YADE a shape's collisions run on: 2023.02a for a linear clump (isotropic route), 2025.2
-    (delValle2023) otherwise."""
-    return "2023.02a" if shp.properties(shape, density)["linear"] else "2025.2"
+def hcs_intervals(path=HCS_EFFECTS):
+    """The committed cooling-gas effects: (shape, youngs_modulus, restitution, friction, case,
+    observable) -> (relative, ci_low, ci_high); empty when ``path`` does not exist.
+
+    Parameters
+    ----------
+    path : str
+        A table with the columns of ``results/hcs_effects.csv``.
+
+    Returns
+    -------
+    dict
+    """
+    if not os.path.exists(path):
+        return {}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return {(r["shape"], float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]), r["case"],
+             r["observable"]): tuple(float(r[k]) for k in ("relative", "relative_ci_low", "relative_ci_high"))
+            for r in rows if r["protocol"] == "paired"}
+
+
+def yade_for(shape, density, friction=0.0):
+    """The YADE a shape's collisions run on: 2023.02a for a frictionless linear clump (isotropic
+    route), 2025.2 (delValle2023) otherwise."""
+    return "2023.02a" if shp.properties(shape, density)["linear"] and not friction else "2025.2"
 
 
 def elastic_predictions(shape, cases, pairs, seed, factor, workdir, tag):
@@ -170,15 +206,20 @@ def elastic_predictions(shape, cases, pairs, seed, factor, workdir, tag):
     return rows
 
 
-def prediction_rows(name, shape, law, rows, gas):
-    """The CSV rows of one shape's predictions, each with its gas interval where one exists."""
+def prediction_rows(name, shape, law, rows, gas, hcs_gas=None):
+    """The CSV rows of one shape's predictions, each with its gas interval where one exists
+    (``gas``: :func:`gas_intervals`, elastic; ``hcs_gas``: :func:`hcs_intervals`, cooling)."""
     youngs, e, mu = law
     out = []
     for r in rows:
-        g = gas.get(gas_key(name, shape) + (r["protocol"], youngs, r["case"]))
+        obs = r.get("observable", "diffusion")
+        if is_elastic(law):
+            g = gas.get(gas_key(name, shape) + (r["protocol"], youngs, r["case"]))
+        else:
+            g = (hcs_gas or {}).get((name, youngs, e, mu, r["case"], obs))
         case = f"{r['case']}/{r['protocol']}"        # the table's one column for case and protocol
         out.append({"shape": name, "youngs_modulus": f"{youngs:g}", "restitution": f"{e:g}", "friction": f"{mu:g}",
-                    "case": case, "observable": "diffusion", "predicted": f"{r['predicted']:.6g}",
+                    "case": case, "observable": obs, "predicted": f"{r['predicted']:.6g}",
                     "predicted_se": f"{r['predicted_se']:.3g}", "cpu_s": f"{r['cpu_s']:.1f}",
                     "gas_relative": "" if g is None else f"{g[0]:.6g}",
                     "gas_ci_low": "" if g is None else f"{g[1]:.6g}",
@@ -204,6 +245,8 @@ def _parser():
     ap.add_argument("--factor", type=float, default=0.5, help="dt factor on the smallest member's P-wave step")
     ap.add_argument("--workdir", default=None, help="keep the YADE runs here (reused by a repeated call)")
     ap.add_argument("--gas", default=EFFECTS, help="the gas effects table (default results/effects.csv)")
+    ap.add_argument("--hcs-gas", default=HCS_EFFECTS,
+                    help="the cooling gas effects table (default results/hcs_effects.csv)")
     ap.add_argument("--out", default=OUT, help="the predictions table (default results/predictions.csv)")
     return ap
 
@@ -214,10 +257,16 @@ def _load(name):
     return S.load(_spec_path(name))
 
 
-def _set_material(spec):
-    """The collision runs' material from the spec (``studies.timestep.collisions.MATERIAL``)."""
-    for k in ("density", "youngs_modulus", "poisson"):
+def _set_material(spec, law):
+    """The collision runs' material (``studies.timestep.collisions.MATERIAL``): the spec's density and
+    Poisson ratio, the contact law ``law`` (:func:`contact_law`)."""
+    for k in ("density", "poisson"):
         tc.MATERIAL[k] = float(spec["material"][k])
+    tc.MATERIAL["youngs_modulus"] = law[0]
+    for k in ("restitution", "friction"):
+        tc.MATERIAL.pop(k, None)
+    if not is_elastic(law):
+        tc.MATERIAL.update(restitution=law[1], friction=law[2])
 
 
 def main(argv=None):
@@ -241,40 +290,45 @@ def main(argv=None):
     except S.SpecError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    law = contact_law(spec)
-    if law[1] != 1.0 or law[2] != 0.0:
-        print(f"error: {spec['path']}: restitution {law[1]:g}, friction {law[2]:g}: the clumps' YADE route for "
-              "inelastic or frictional contacts is not built (studies.predict_hcs covers spheres)", file=sys.stderr)
-        return 2
     if a.pairs < 10:
         print(f"error: --pairs {a.pairs}: at least 10 collision courses are needed for a standard error", file=sys.stderr)
         return 2
     saved = dict(tc.MATERIAL)
-    _set_material(spec)
     try:
-        return _predict(a, spec, law)
+        return _predict(a, spec)
+    except predict_cooling.NoBalance as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     finally:
         tc.MATERIAL.clear()
         tc.MATERIAL.update(saved)
 
 
-def _predict(a, spec, law):
+def _predict(a, spec):
     work = a.workdir or tempfile.mkdtemp(prefix="predict-")
     os.makedirs(work, exist_ok=True)
-    gas = gas_intervals(a.gas)
+    gas, hcs_gas = gas_intervals(a.gas), hcs_intervals(a.hcs_gas)
     table, t0 = [], time.time()
-    for name, cases in shape_cases(spec).items():
+    for (name, law), cases in shape_cases(spec).items():
         if not cases:
             continue
+        _set_material(spec, law)
         shape = spec["shapes"][name]
         tag = f"{name}-E{law[0]:g}-n{a.pairs}-s{a.seed}"
-        rows = elastic_predictions(shape, cases, a.pairs, a.seed, a.factor, work, tag)
+        if is_elastic(law):
+            rows = elastic_predictions(shape, cases, a.pairs, a.seed, a.factor, work, tag)
+        else:
+            tag += f"-e{law[1]:g}-mu{law[2]:g}"
+            rows = predict_cooling.cooling_predictions(shape, [c for c, _ in cases], a.pairs, a.seed, a.factor, work,
+                                                       tag, yade_for(shape, tc.MATERIAL["density"], law[2]))
         cpu = sum(r["cpu_s"] for r in rows)
         for r in rows:
-            print(f"[predict] {name} {r['case']} {r['protocol']}: D_case/D_exact - 1 = {100 * r['predicted']:+.2f} % "
-                  f"± {100 * r['predicted_se']:.2f} % (se, {r['pairs_used']} collisions)")
+            print(f"[predict] {name} {r['case']} {r['protocol']}: {r.get('observable', 'diffusion')} case/exact - 1 = "
+                  f"{100 * r['predicted']:+.2f} % ± {100 * r['predicted_se']:.2f} % (se, {r['pairs_used']} collisions)"
+                  + (f"; T_rot/T_tr {r['ratio_exact']:.4f} (exact), {r['ratio_case']:.4f} (case), root check "
+                     f"at r* {100 * r['root_check']:.2f} %" if "ratio_exact" in r else ""))
         print(f"[predict] {name}: CPU {cpu / 60:.1f} min", flush=True)
-        table += prediction_rows(name, shape, law, rows, gas)
+        table += prediction_rows(name, shape, law, rows, gas, hcs_gas)
     write_table(table, a.out)
     print(f"[predict] wrote {os.path.relpath(a.out, ROOT)}; wall {(time.time() - t0) / 60:.1f} min")
     return 0

@@ -74,12 +74,18 @@ def test_the_dimer_reproduces_its_committed_collision_map_with_the_same_pairs_an
     assert set(got) == {"uncorrected/paired", "uncorrected/equal_energy"}
 
 
-def test_an_inelastic_spec_stops_with_a_one_line_error(tmp_path, capsys):
+@needs_2023
+def test_an_inelastic_spec_predicts_the_cooling_observables_of_paired_cases(tmp_path):
     spec = _dimer025_spec(tmp_path, material_extra="restitution = 0.9\n")
-    assert predict.main([spec, "--out", str(tmp_path / "p.csv")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("error:") and "\n" not in err
-    assert not (tmp_path / "p.csv").exists()
+    out = tmp_path / "p.csv"
+    assert predict.main([spec, "--pairs", "300", "--workdir", str(tmp_path / "w"), "--out", str(out)]) == 0
+    _, rows = _read(out)
+    # equal energy has no cooling counterpart: every case is predicted paired, each on three observables
+    assert [(r["case"], r["observable"]) for r in rows] == [
+        (f"{c}/paired", o) for c in ("uncorrected", "mass_only", "inertia_only")
+        for o in ("cooling_rate", "temperature_ratio", "diffusion")]
+    assert all(r["restitution"] == "0.9" and r["friction"] == "0" and float(r["predicted_se"]) > 0 for r in rows)
+    assert all(r["gas_relative"] == "" for r in rows)              # no cooling gas of this dimer
 
 
 def test_a_missing_spec_stops_with_a_one_line_error(tmp_path, capsys):

@@ -64,12 +64,12 @@ def make_pairs(shape, n_pairs, seed, energy=ENERGY, gap=1e-3):
     Maxwellian (density ~ g^3 exp(-mu g^2 / 2kT), mu = m/2); centre-of-mass velocity 0.  Impact
     parameter uniform over the disc of radius 2 r_b (r_b: bounding radius), so every collision
     of the gas is represented with its rate.  Orientations uniform; body-frame angular
-    velocities Gaussian with variance kT/I_k (linear clumps: none about the axis).  kT =
+    velocities Gaussian with variance kT/I_k (frictionless linear clumps: none about the axis).  kT =
     2 energy / (3 + rotational dof)."""
     rng = np.random.default_rng(seed)
     rho = MATERIAL["density"]
     props = shp.properties(shape, rho)
-    cres = gm.resolve_case(props, "exact")
+    cres = gm.resolve_case(props, "exact", friction=MATERIAL.get("friction", 0.0))
     m = cres["mass"]
     rot_dof = cres["rot_dof"]
     kT = 2.0 * energy / (3 + rot_dof)
@@ -88,7 +88,7 @@ def make_pairs(shape, n_pairs, seed, energy=ENERGY, gap=1e-3):
     ori = random_rotations(rng, 2 * n)
     pm = np.asarray(props["exact"]["principal_moments"])
     z = rng.normal(size=(2 * n, 3))
-    if props["linear"]:                              # body z is the axis
+    if cres["route"] == "isotropic" and props["linear"]:     # body z is the axis
         wb = z * np.sqrt(kT / pm[2])
         wb[:, 2] = 0.0
     else:

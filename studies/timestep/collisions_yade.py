@@ -11,7 +11,8 @@ reads OUT; nothing else uses this module.
 IN holds the material, the time step, the body (members, radii, mass, principal moments, builder
 and route, exactly as ``studies.spec.run_input`` resolves them for the gas) and 2 n bodies: pair k
 is bodies 2k and 2k+1, far from every other pair, on a collision course.  The scene is the gas's
-(Hertz-Mindlin, frictionless, undamped; no gravity) without a periodic cell.  The bodies are built
+(Hertz-Mindlin; frictionless and undamped unless the material gives ``friction``, ``restitution``,
+``tangential_restitution``; no gravity) without a periodic cell.  The bodies are built
 as ``yade_scripts/granular_gas.py`` builds them (same builders, mass, inertia, ``aspherical``
 flag, integrator).  The run goes on until every pair is apart by more than twice the bounding
 radius and separating (no contact can follow in free flight), then one more step.
@@ -26,6 +27,7 @@ final velocity, the half-step body-frame angular velocities before and after the
 orientation and the principal moments, and per pair whether a contact happened.
 """
 import json
+import math
 import os
 import sys
 import time
@@ -38,7 +40,7 @@ import yade.config  # noqa: E402
 from yade import O, utils  # noqa: E402
 from yade.wrapper import (ForceResetter, InsertionSortCollider, Bo1_Sphere_Aabb, InteractionLoop,  # noqa: E402
                           Ig2_Sphere_Sphere_ScGeom, Ip2_FrictMat_FrictMat_MindlinPhys,
-                          Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator, FrictMat)
+                          Law2_ScGeom_MindlinPhys_Mindlin, NewtonIntegrator, FrictMat, MatchMaker)
 from yade.minieigenHP import Vector3  # noqa: E402
 
 
@@ -69,8 +71,14 @@ def _scene(R, route):
     """Reset YADE to the gas's scene (no bodies yet): its material and the integrator's rotation
     algorithm's name."""
     O.reset()
-    mat = O.materials.append(FrictMat(young=R["material"]["youngs_modulus"], poisson=R["material"]["poisson"],
-                                      density=R["material"]["density"], frictionAngle=0.0, label="grain"))
+    M = R["material"]
+    e = float(M.get("restitution", 1.0))
+    mat = O.materials.append(FrictMat(young=M["youngs_modulus"], poisson=M["poisson"], density=M["density"],
+                                      frictionAngle=math.atan(float(M.get("friction", 0.0))), label="grain"))
+    # as yade_scripts/granular_gas.py: en (and es) set a viscous damping giving that restitution
+    phys = (Ip2_FrictMat_FrictMat_MindlinPhys() if e >= 1.0 else
+            Ip2_FrictMat_FrictMat_MindlinPhys(en=MatchMaker(algo="val", val=e),
+                                              es=MatchMaker(algo="val", val=float(M.get("tangential_restitution", e)))))
     newton = NewtonIntegrator(damping=0.0, gravity=(0, 0, 0), exactAsphericalRot=(route == "aspherical"))
     rot_algorithm = "isotropic (aspherical=False)"
     if route == "aspherical":
@@ -81,8 +89,7 @@ def _scene(R, route):
     O.engines = [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_MindlinPhys()],
-                        [Law2_ScGeom_MindlinPhys_Mindlin()]),
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [phys], [Law2_ScGeom_MindlinPhys_Mindlin()]),
         newton,
     ]
     return mat, rot_algorithm

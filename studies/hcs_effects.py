@@ -1,0 +1,226 @@
+"""Each case's effect on a clump gas in the homogeneous cooling state: rows of ``results/hcs_effects.csv``.
+
+Reads the HCS series kept in the reduced records of cooling-clump studies (``hcs_clumps.toml``),
+analyses every run with :func:`studies.hcs.analyse_series` and pairs each case with the exact case
+of the same seed and parameters (the paired protocol: one initial state per seed).  Per seed, the
+relative effect ``X_case / X_exact - 1`` of three observables:
+
+* ``cooling_rate``: zeta = 2 / tau0 of Haff's fit to T_tr past the transient, at the start
+  temperature (zeta scales as sqrt(T_tr): zeta0 sqrt(T_start / T0) with the fit's T0);
+* ``temperature_ratio``: T_rot / T_tr averaged over the window after the transient;
+* ``diffusion``: D0 from the MSD against the scaled time ln(1 + t / tau0), at the start
+  temperature as zeta.
+
+The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`),
+the estimator of ``results/effects.csv`` (its coverage: ``tests/test_estimators.py``).
+"""
+from __future__ import annotations
+
+import csv
+import glob
+import json
+import math
+import os
+import sys
+
+import numpy as np
+
+from . import hcs
+from .effects import _pair_facts, case_errors, shape_name
+from .intervals import t_interval
+
+COLUMNS = ("shape", "n_spheres", "youngs_modulus", "restitution", "friction", "protocol", "case", "observable",
+           "n_pairs", "relative", "relative_ci_low", "relative_ci_high", "mass_error", "k2_error", "yade_version",
+           "rot_algorithm")
+OBSERVABLES = ("cooling_rate", "temperature_ratio", "diffusion")
+# s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: T_rot / T_tr settles
+# to its HCS value within a few mean free times (docs/hcs.md)
+T_TRANSIENT = 5.0
+
+
+def load_records(results_dir):
+    """The reduced records of a study's cooling runs (those with an ``hcs`` part), in name order.
+
+    Parameters
+    ----------
+    results_dir : str
+        A study's results folder (its ``runs/*.json``).
+
+    Returns
+    -------
+    list of dict
+        The records.
+    """
+    out = []
+    for path in sorted(glob.glob(os.path.join(results_dir, "runs", "*.json"))):
+        with open(path) as f:
+            rec = json.load(f)
+        if "hcs" in rec:
+            out.append(rec)
+    return out
+
+
+def observables(series, t_transient=T_TRANSIENT):
+    """The three HCS observables of one run.
+
+    Parameters
+    ----------
+    series : mapping
+        The run's :func:`studies.hcs.series` (its record's ``hcs`` part).
+    t_transient : float, optional
+        Frames before it (s) are left out of every fit.
+
+    Returns
+    -------
+    dict
+        ``cooling_rate`` (1/s) and ``diffusion`` (m^2/s) at the start temperature, ``temperature_ratio``
+        (NaN without rotation).
+    """
+    a = hcs.analyse_series(series, t_transient=t_transient, fit_from=t_transient)
+    f_rot = int(series["rot_dof"])
+    t_start = hcs.temperatures(np.asarray(series["e_trans"][:1], float), np.asarray(series["e_rot"][:1], float),
+                               int(series["n_particles"]), f_rot)[0][0]
+    # zeta and D of a cooling gas scale as sqrt(T_tr): both at the start temperature, which every case
+    # of a paired seed shares (per unit mass), not at the fit's T0, which the transient moves
+    scale = math.sqrt(t_start / a["haff"]["t0"])
+    return {"cooling_rate": a["haff"]["zeta0"] * scale,
+            "temperature_ratio": a["ratio"]["ratio"] if a["ratio"] is not None else float("nan"),
+            "diffusion": a["msd"]["d0"] * scale}
+
+
+def paired(records, t_transient=T_TRANSIENT):
+    """Per-seed relative effects of every case against exact.
+
+    Parameters
+    ----------
+    records : list of dict
+        Reduced run records (:func:`load_records`).
+    t_transient : float, optional
+        As :func:`observables`.
+
+    Returns
+    -------
+    dict
+        ``{(pair key, case): {"params": ..., "seeds": [...], "relative": {observable: [...]},
+        "yade_version": set, "rot_algorithm": set}}``.
+    """
+    groups = {}
+    for rec in records:
+        p = rec["params"]
+        key = json.dumps(_pair_facts(p), sort_keys=True)
+        groups.setdefault((key, rec["seed"]), {})[rec["case"]] = rec
+    out = {}
+    for (key, seed), cases in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+        ex = cases.get("exact")
+        if ex is None:
+            continue
+        x_ex = observables(ex["hcs"], t_transient)
+        for case, rec in sorted(cases.items()):
+            if case == "exact":
+                continue
+            x = observables(rec["hcs"], t_transient)
+            slot = out.setdefault((key, case), {"params": rec["params"], "seeds": [], "yade_version": set(),
+                                                "rot_algorithm": set(),
+                                                "relative": {o: [] for o in OBSERVABLES}})
+            slot["seeds"].append(seed)
+            for o in OBSERVABLES:
+                slot["relative"][o].append(x[o] / x_ex[o] - 1.0)
+            for r in (ex, rec):
+                slot["yade_version"].add(r["yade_version"])
+                slot["rot_algorithm"].add(r["rot_algorithm"])
+    return out
+
+
+def rows(records, t_transient=T_TRANSIENT):
+    """Rows of ``results/hcs_effects.csv`` (columns :data:`COLUMNS`).
+
+    Parameters
+    ----------
+    records : list of dict
+        Reduced records of cooling clump runs (:func:`load_records`).
+    t_transient : float, optional
+        As :func:`observables`.
+
+    Returns
+    -------
+    list of dict
+        One row per (shape, material, protocol, case, observable) with at least one paired seed.
+    """
+    out = []
+    for (_, case), slot in paired(records, t_transient).items():
+        p = slot["params"]
+        shape, mat = p["shape"]["definition"], p["material"]
+        for o in OBSERVABLES:
+            vals = [v for v in slot["relative"][o] if math.isfinite(v)]
+            if not vals:
+                continue
+            m, lo, hi, _, n = t_interval(vals)
+            out.append({"shape": shape_name(shape), "n_spheres": len(p["shape"]["radii"]),
+                        "youngs_modulus": float(mat["youngs_modulus"]), "restitution": float(mat.get("restitution", 1.0)),
+                        "friction": float(mat.get("friction", 0.0)), "protocol": p["protocol"], "case": case,
+                        "observable": o, "n_pairs": n, "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
+                        **case_errors(shape, float(mat["density"]), case),
+                        "yade_version": ";".join(sorted(slot["yade_version"])),
+                        "rot_algorithm": ";".join(sorted(slot["rot_algorithm"]))})
+    out.sort(key=lambda r: (r["shape"], r["friction"], r["restitution"], r["case"], OBSERVABLES.index(r["observable"])))
+    return out
+
+
+def write(path, rows_):
+    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS`.
+
+    Parameters
+    ----------
+    path : str
+        The CSV file (``results/hcs_effects.csv``).
+    rows_ : list of dict
+        The rows.
+    """
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows_:
+            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else ("" if v is None else v)) for k, v in r.items()})
+
+
+def main(argv=None):
+    """``python -m studies hcs-effects [SPEC ...]``: results/hcs_effects.csv from cooling clump studies' records.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command line's arguments.
+
+    Returns
+    -------
+    int
+        0, or 1 when no study has a paired cooling-run record yet.
+    """
+    import argparse
+
+    from . import spec as S
+
+    ap = argparse.ArgumentParser(prog="python -m studies hcs-effects",
+                                 description="Each case's relative effect on the cooling rate, T_rot / T_tr and the "
+                                             "HCS self-diffusion of clump gases, from the committed run records.",
+                                 epilog="Writes results/hcs_effects.csv (or --out). Intervals: Student-t over seeds.")
+    ap.add_argument("specs", nargs="*", default=["hcs_clumps"], help="cooling clump studies (default: hcs_clumps)")
+    ap.add_argument("--t-transient", type=float, default=T_TRANSIENT, metavar="S",
+                    help=f"frames before it are left out of every fit (default: {T_TRANSIENT:g} s)")
+    ap.add_argument("--out", default=os.path.join(S.ROOT, "results", "hcs_effects.csv"))
+    a = ap.parse_args(argv)
+    records = []
+    for name in a.specs:
+        spec = S.load(name if os.path.exists(name) else os.path.join(S.SPEC_DIR, name + ".toml"))
+        records += load_records(os.path.join(S.ROOT, spec["study"]["results"]))
+    out = rows(records, a.t_transient)
+    if not out:
+        print(f"[hcs-effects] no paired cooling-run records in {', '.join(a.specs)}", file=sys.stderr)
+        return 1
+    write(a.out, out)
+    for r in out:
+        print(f"[hcs-effects] {r['shape']} e={r['restitution']:g} mu={r['friction']:g} {r['case']:>12} "
+              f"{r['observable']:>17}: {100 * r['relative']:+.2f} % [{100 * r['relative_ci_low']:+.2f}, "
+              f"{100 * r['relative_ci_high']:+.2f}] ({r['n_pairs']} pairs)")
+    print(f"[hcs-effects] wrote {a.out}")
+    return 0

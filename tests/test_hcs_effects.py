@@ -1,0 +1,85 @@
+"""studies.hcs_effects on synthetic cooling runs whose effects are known (no YADE)."""
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from studies import hcs, hcs_effects as H, spec as S
+
+N, BOX, MASS = 200, 8.0, 2.0
+
+
+def _series(rng, tau0, ratio, d0, transient=True):
+    """A clump gas's HCS series: Haff's cooling with time tau0 after a transient of 5 s in which
+    T_rot / T_tr relaxes from 1 to ``ratio`` and T_tr cools at another rate; MSD = 6 D0 tau0 s."""
+    t = np.linspace(0.0, 40.0, 801)
+    temp = 2.0 / (1 + t / tau0) ** 2
+    r = np.full_like(t, ratio)
+    if transient:
+        early = t < 5.0
+        temp = np.where(early, temp * (1 + 0.3 * (5.0 - t) / 5.0), temp)
+        r = np.where(early, ratio + (1 - ratio) * np.exp(-3 * t), r)
+    msd = 6 * d0 * tau0 * np.log1p(t / tau0) * (1 + 1e-3 * rng.normal(size=t.size))
+    return {"t": t.tolist(), "e_trans": (1.5 * N * temp).tolist(), "e_rot": (1.5 * N * r * temp).tolist(),
+            "msd": msd.tolist(), "count_ratio": (1 + 0.05 * rng.normal(size=t.size)).tolist(),
+            "cells_per_side": 4, "n_particles": N, "rot_dof": 3, "box_length": BOX, "builder": "clumpprops",
+            "mass": MASS, "diameter": None, "restitution": 0.9, "friction": 0.5}
+
+
+def _records(effect, seeds=(1, 2, 3, 4), spread=0.05, transient=True):
+    """Exact and uncorrected runs of the hcs_clumps spec's rough dimer, the uncorrected case's
+    observables ``(1 + effect[o])`` times the exact ones of its seed; seeds differ by ``spread``."""
+    rng = np.random.default_rng(7)
+    spec = S.load(f"{S.SPEC_DIR}/hcs_clumps.toml")
+    runs = [r for r in S.runs(spec) if r["params"]["shape"]["definition"]["kind"] == "dimer"
+            and "friction" in r["params"]["material"] and r["params"]["case"] in ("exact", "uncorrected")
+            and r["params"]["seed"] in seeds]
+    out = []
+    for r in runs:
+        p = r["params"]
+        srng = np.random.default_rng(p["seed"])
+        tau0, ratio, d0 = (x * (1 + spread * srng.normal()) for x in (8.0, 0.6, 0.05))
+        if p["case"] == "uncorrected":
+            tau0 /= 1 + effect["cooling_rate"]
+            ratio *= 1 + effect["temperature_ratio"]
+            d0 *= 1 + effect["diffusion"]
+        out.append({"params": p, "seed": p["seed"], "case": p["case"], "yade_version": "2025.2",
+                    "rot_algorithm": "delValle2023", "hcs": _series(rng, tau0, ratio, d0, transient)})
+    return out
+
+
+def test_known_effects_are_recovered_past_a_transient():
+    effect = {"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02}
+    rows = H.rows(_records(effect))
+    assert {r["observable"] for r in rows} == set(H.OBSERVABLES) and all(r["n_pairs"] == 4 for r in rows)
+    for r in rows:
+        assert r["relative"] == pytest.approx(effect[r["observable"]], abs=2e-3), r
+        assert r["relative_ci_low"] - 1e-9 <= effect[r["observable"]] <= r["relative_ci_high"] + 1e-9
+        assert (r["shape"], r["n_spheres"], r["friction"], r["restitution"], r["case"]) == ("dimer", 2, 0.5, 0.9,
+                                                                                             "uncorrected")
+        assert r["mass_error"] == pytest.approx(0.185, abs=2e-3)        # the paper's dimer: summed mass +18.5 %
+
+
+def test_the_transient_biases_the_cooling_rate_unless_left_out():
+    """The fit starts after the transient (fitted from t = 0 the same runs give another zeta0), and
+    zeta is taken at the start temperature: T_tr starts 1.3 times the Haff curve's T0 here."""
+    recs = _records({"cooling_rate": 0.0, "temperature_ratio": 0.0, "diffusion": 0.0}, seeds=(1,))
+    s = next(r["hcs"] for r in recs if r["case"] == "exact")
+    tau0 = 8.0 * (1 + 0.05 * np.random.default_rng(1).normal())
+    assert H.observables(s)["cooling_rate"] == pytest.approx(2 / tau0 * math.sqrt(1.3), rel=1e-6)
+    assert hcs.analyse_series(s, fit_from=5.0)["haff"]["zeta0"] == pytest.approx(2 / tau0, rel=1e-6)
+    assert abs(hcs.analyse_series(s)["haff"]["zeta0"] / (2 / tau0) - 1) > 0.02
+
+
+def test_runs_without_their_exact_seed_are_left_out_and_the_csv_has_the_fixed_columns(tmp_path):
+    recs = [r for r in _records({o: 0.0 for o in H.OBSERVABLES}) if not (r["case"] == "exact" and r["seed"] == 4)]
+    rows = H.rows(recs)
+    assert all(r["n_pairs"] == 3 for r in rows)
+    path = tmp_path / "hcs_effects.csv"
+    H.write(str(path), rows)
+    with open(path) as f:
+        got = list(csv.DictReader(f))
+    assert tuple(got[0]) == H.COLUMNS and len(got) == 3
+    assert math.isclose(float(got[0]["relative"]), rows[0]["relative"], rel_tol=1e-9)
+    assert not H.rows([r for r in recs if r["case"] == "uncorrected"])
