@@ -242,7 +242,7 @@ def count_variance_ratio(pos, box, cells_per_side):
     return float(out[0]) if single else out
 
 
-def homogeneous_until(t, ratio, n_cells, z=3.0, n_consecutive=3):
+def homogeneous_until(t, ratio, n_cells, z=3.0, n_consecutive=3, min_duration=1.0):
     """The time the gas stops being homogeneous: the count-variance ratio leaves its noise band.
 
     Parameters
@@ -255,21 +255,26 @@ def homogeneous_until(t, ratio, n_cells, z=3.0, n_consecutive=3):
         Band half-width in standard deviations of the ratio of a homogeneous gas, sqrt(2 / (M - 1)).
     n_consecutive : int, optional
         Frames in a row above the band that count as clustering (one noisy frame does not).
+    min_duration : float, optional
+        And the time (s) they must span: frames a fraction of a mean free time apart are
+        correlated, so a fluctuation of the counts lasts several frames and then reverts, while a
+        cluster lasts many collision times.
 
     Returns
     -------
     float
-        The time of the first of ``n_consecutive`` frames above 1 + z sqrt(2 / (M - 1)); the last
-        frame's time if the gas stays homogeneous.
+        The time of the first of a run of frames above 1 + z sqrt(2 / (M - 1)) that holds at least
+        ``n_consecutive`` frames and spans at least ``min_duration``; the last frame's time if
+        the gas stays homogeneous.
     """
     t, r = np.asarray(t, float), np.asarray(ratio, float)
     limit = 1.0 + z * math.sqrt(2.0 / (n_cells - 1))
     above = r > limit
-    run = 0
+    start = None
     for k, a in enumerate(above):
-        run = run + 1 if a else 0
-        if run >= n_consecutive:
-            return float(t[k - n_consecutive + 1])
+        start = (k if start is None else start) if a else None
+        if start is not None and k - start + 1 >= n_consecutive and t[k] - t[start] >= min_duration - 1e-12:
+            return float(t[start])
     return float(t[-1])
 
 

@@ -9,8 +9,8 @@ from paired YADE binary collisions (the collision-map method of ``studies.maps``
 spec defines; an aspherical shape runs on YADE 2025.2 through scripts/debian13.sh), with its
 standard error over the collisions and the CPU time of its YADE runs.  Beside each prediction
 stands the gas interval where the committed gas runs have one (``results/effects.csv``).
-Writes ``results/predictions.csv`` (columns ``COLUMNS``); never overwrites another file than
-``--out``.
+Writes ``results/predictions.csv`` (columns ``COLUMNS``): the rows of the spec's shapes and contact
+laws replace theirs, the other rows stay (:func:`merged`); never writes another file than ``--out``.
 
 Inelastic and frictional contacts (spec keys ``restitution`` and ``friction`` under [material] or
 in a group) make the homogeneous cooling state the gas's natural state: for them each case's effect
@@ -227,6 +227,43 @@ def prediction_rows(name, shape, law, rows, gas, hcs_gas=None):
     return out
 
 
+def merged(rows, path, gas=None):
+    """``rows`` with the rows of the table at ``path`` that they do not replace: a row of another
+    (shape, youngs_modulus, restitution, friction) stays, its gas columns brought up to date from
+    ``gas`` (:func:`gas_intervals`) where its shape is a template (effects.csv names it by the
+    template's file stem, with no overlap).
+
+    Parameters
+    ----------
+    rows : list of dict
+        New rows (keys ``COLUMNS``).
+    path : str
+        The table (absent: ``rows`` alone).
+    gas : dict, optional
+        The committed elastic gas intervals.
+
+    Returns
+    -------
+    list of dict
+    """
+    if not os.path.exists(path):
+        return list(rows)
+    with open(path, newline="") as f:
+        old = list(csv.DictReader(f))
+    law = lambda r: (r["shape"], r["youngs_modulus"], r["restitution"], r["friction"])     # noqa: E731
+    new = {law(r) for r in rows}
+    kept = []
+    for r in old:
+        if law(r) in new or set(r) != set(COLUMNS):
+            continue
+        case, _, prot = r["case"].partition("/")
+        g = (gas or {}).get((r["shape"], "", prot, float(r["youngs_modulus"]), case))
+        if g is not None and is_elastic((float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]))):
+            r = dict(r, gas_relative=f"{g[0]:.6g}", gas_ci_low=f"{g[1]:.6g}", gas_ci_high=f"{g[2]:.6g}")
+        kept.append(r)
+    return kept + list(rows)
+
+
 def write_table(rows, path):
     """Write ``rows`` (dicts with the keys ``COLUMNS``) as CSV to ``path``."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
@@ -329,7 +366,7 @@ def _predict(a, spec):
                      f"at r* {100 * r['root_check']:.2f} %" if "ratio_exact" in r else ""))
         print(f"[predict] {name}: CPU {cpu / 60:.1f} min", flush=True)
         table += prediction_rows(name, shape, law, rows, gas, hcs_gas)
-    write_table(table, a.out)
+    write_table(merged(table, a.out, gas), a.out)
     print(f"[predict] wrote {os.path.relpath(a.out, ROOT)}; wall {(time.time() - t0) / 60:.1f} min")
     return 0
 

@@ -188,3 +188,15 @@ def test_contact_keys_reach_the_run_file_only_when_given():
         assert set(r["params"]["run"]) == {"t_end", "rec_interval", "dt_factor"}
         assert "cooling_stop" not in S.run_input(r["params"])
     assert set(spec["material"]) == {"density", "youngs_modulus", "poisson"}
+
+
+def test_a_passing_fluctuation_of_the_counts_is_not_clustering():
+    """Frames 0.05 s apart: a 0.25 s excursion above the band that reverts (as a seed of the
+    tetrahedron gas shows at 3.5-3.75 s) is noise; one that lasts is a cluster."""
+    m = 64
+    t = np.arange(0.0, 12.0, 0.05)
+    ratio = np.full(t.size, 0.9)
+    ratio[(t > 3.5) & (t < 3.8)] = 1.6
+    assert hcs.homogeneous_until(t, ratio, m) == t[-1]
+    ratio[t > 8.0] = 1.8
+    assert hcs.homogeneous_until(t, ratio, m) == pytest.approx(t[t > 8.0][0])

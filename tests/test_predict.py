@@ -92,3 +92,17 @@ def test_a_missing_spec_stops_with_a_one_line_error(tmp_path, capsys):
     assert predict.main([str(tmp_path / "none.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err
+
+
+def test_a_new_prediction_replaces_its_own_rows_and_keeps_the_others(tmp_path):
+    path = tmp_path / "p.csv"
+    row = lambda shape, e, v: {"shape": shape, "youngs_modulus": "1e+07", "restitution": e, "friction": "0",  # noqa: E731
+                               "case": "uncorrected/paired", "observable": "diffusion", "predicted": v,
+                               "predicted_se": "0.01", "cpu_s": "1", "gas_relative": "", "gas_ci_low": "",
+                               "gas_ci_high": ""}
+    predict.write_table([row("grain", "1", "0.03"), row("dimer", "0.9", "0.01")], str(path))
+    gas = {("grain", "", "paired", 1e7, "uncorrected"): (0.02, 0.01, 0.04)}
+    out = predict.merged([row("dimer", "0.9", "0.05")], str(path), gas)
+    assert [(r["shape"], r["predicted"]) for r in out] == [("grain", "0.03"), ("dimer", "0.05")]
+    assert (out[0]["gas_relative"], out[0]["gas_ci_high"]) == ("0.02", "0.04")    # refreshed from the gas table
+    assert predict.merged([row("x", "1", "0")], str(tmp_path / "none.csv")) == [row("x", "1", "0")]

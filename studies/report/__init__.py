@@ -23,7 +23,7 @@ from . import answers, findings, tables
 from .render import apart as _apart
 from .render import interval, pct, render, verdict
 from .render import lines as _lines
-from .sections import (LATE_VARIANT, RECORD_VARIANT, collision_map_section, effects_section,
+from .sections import (LATE_VARIANT, RECORD_VARIANT, collision_map_section, cooling_section, effects_section, law_section,
                        hard_sphere_md_section, programme_section, rate_ratio_section, rates_section,
                        sphere_gas_section)
 from .sections import fig2_section as _fig2_section
@@ -46,7 +46,7 @@ __all__ = ["RESULTS", "FINDINGS", "build", "main", "Planned", "planned", "readab
            "same_spin_pairs", "pct", "interval", "verdict", "RECORD_VARIANT", "LATE_VARIANT", "fig2_section",
            "failures_section", "plain_words", "answers_section", "programme_section", "effects_section",
            "collision_map_section", "rates_section", "rate_ratio_section", "sphere_gas_section",
-           "hard_sphere_md_section"]
+           "hard_sphere_md_section", "cooling_section", "law_section"]
 
 RESULTS = os.path.join(S.ROOT, "results")
 FINDINGS = findings.FINDINGS            # docs/findings.md, the study's findings page
@@ -97,7 +97,7 @@ def _write(path, text):
 
 
 def build():
-    """Write ``RESULTS/effects.csv``, the report's figures, ``RESULTS/README.md`` and ``docs/findings.md``
+    """Write ``RESULTS/effects.csv``, ``RESULTS/law.csv``, the report's figures, ``RESULTS/README.md`` and ``docs/findings.md``
     (:mod:`studies.report.findings`); returns the report's text."""
     specs, failures = readable_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
@@ -123,6 +123,8 @@ def build():
     vacf_shape = tables.read_json(os.path.join(S.ROOT, "results", "estimator", "vacf_shape_md.json"))
     hsmd = tables.read_json(os.path.join(RESULTS, "hard_sphere_md.json"))        # written by studies.hard_sphere_md
     hard_sphere_md_section(lines, hsmd["gases"] if hsmd else [], sph, vacf_shape)
+    cooling_section(lines, RESULTS)
+    law_section(lines, RESULTS)
     lines += _lines(render("figures.md.j2", figures=figs))
     text = "\n".join(lines) + "\n"
     _write(os.path.join(RESULTS, "README.md"), text)

@@ -1,10 +1,11 @@
 """The report's table sections, each rendered from its template (``studies/templates/report/``)
 and appended to the report's lines: the paper's Fig. 2, the programme of sequential questions,
-the effects table, the collision maps, the relaxation times, the sphere gas against kinetic theory
-and the event-driven hard-sphere gas."""
+the effects table, the collision maps, the relaxation times, the sphere gas against kinetic theory,
+the event-driven hard-sphere gas and the cooling (dissipative) gases."""
 from __future__ import annotations
 
 import math
+import os
 
 import pandas as pd
 from scipy import stats
@@ -66,6 +67,25 @@ def rates_section(lines, rrows):
 def rate_ratio_section(lines, rr):
     """The first seconds' D ratios against the map (:func:`studies.rates.ratio_rows`)."""
     lines += _lines(render("rate_ratio.md.j2", rows=rr))
+
+
+def cooling_section(lines, results):
+    """The dissipative and frictional gases: the sphere validations, each clump case's effect in the
+    HCS beside its prediction, the predictor's record (:func:`tables.cooling_tables`)."""
+    theory, clumps, record, predicted = tables.cooling_tables(results)
+    lines += _lines(render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted))
+
+
+def law_section(lines, results):
+    """The law fitted to the predictions and checked on the gas (:mod:`studies.law`); writes
+    ``law.csv`` and ``law.png`` under ``results``."""
+    from .. import law
+
+    rows, fits, checks = law.law_rows(results, os.path.join(results, "predictions.csv"))
+    if rows:
+        law.write(rows, os.path.join(results, "law.csv"))
+        law.plot(fits, checks, os.path.join(results, "law.png"))
+    lines += _lines(render("law.md.j2", rows=rows, formula=law.FORMULA))
 
 
 def sphere_gas_section(lines, sph):

@@ -258,3 +258,46 @@ def same_spin_rows(specs, records=None):
             out.append({"shape": sp["groups"][0]["shape"], "case": case, "study": sp["study"]["name"], "n": n,
                         "m": m, "lo": lo, "hi": hi, "dm": dm, "dlo": dlo, "dhi": dhi, "cm": cm, "clo": clo, "chi": chi})
     return out
+
+
+HCS_TARGETS = {"cooling_rate": 0.01, "temperature_ratio": 0.01, "diffusion": 0.02}     # issue 36's half-widths
+
+
+def _csv_rows(path):
+    return pd.read_csv(path).to_dict("records") if os.path.exists(path) else []
+
+
+def cooling_tables(results):
+    """The cooling section's rows from ``results/hcs_theory.csv``, ``hcs_effects.csv`` and
+    ``predictions.csv``: (theory rows, clump rows each with its prediction, the predictor's record,
+    dissipative predictions without a gas row)."""
+    theory = []
+    for r in _csv_rows(os.path.join(results, "hcs_theory.csv")):
+        off = r["measured"] / r["theory"] - 1
+        theory.append(dict(r, halfwidth=(r["ci_high"] - r["ci_low"]) / 2 / abs(r["measured"]), offset=off,
+                           theory_inside=r["ci_low"] <= r["theory"] <= r["ci_high"],
+                           within_accuracy=abs(off) <= r["theory_accuracy"]))
+    preds = {}
+    for p in _csv_rows(os.path.join(results, "predictions.csv")):
+        if p["restitution"] != 1 or p["friction"] != 0:
+            case, _, prot = str(p["case"]).partition("/")
+            preds[(p["shape"], float(p["youngs_modulus"]), float(p["restitution"]), float(p["friction"]), case,
+                   p["observable"])] = p
+    clumps, used = [], set()
+    for r in _csv_rows(os.path.join(results, "hcs_effects.csv")):
+        key = (r["shape"], float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]), r["case"],
+               r["observable"])
+        p = preds.get(key)
+        used.add(key)
+        clumps.append(dict(r, halfwidth=(r["relative_ci_high"] - r["relative_ci_low"]) / 2,
+                           target=HCS_TARGETS[r["observable"]],
+                           predicted=None if p is None else float(p["predicted"]),
+                           predicted_se=None if p is None else float(p["predicted_se"])))
+    both = [c for c in clumps if c["predicted"] is not None and c["n_pairs"] >= 2]
+    apart = [c for c in both if not (c["relative_ci_low"] <= c["predicted"] + 1.96 * c["predicted_se"]
+                                     and c["predicted"] - 1.96 * c["predicted_se"] <= c["relative_ci_high"])]
+    record = dict(n=len(both), overlap=len(both) - len(apart), apart=len(apart), apart_rows=apart,
+                  n_rows=len(clumps), targets_met=sum(c["n_pairs"] >= 2 and c["halfwidth"] <= c["target"]
+                                                      for c in clumps)) if clumps else None
+    predicted = [p for k, p in preds.items() if k not in used]
+    return theory, clumps, record, predicted

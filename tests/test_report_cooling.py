@@ -1,0 +1,47 @@
+"""The report's cooling section (studies.report.tables.cooling_tables, cooling.md.j2) on small tables."""
+import csv
+
+from studies.report import tables
+from studies.report.render import render
+
+
+def _write(path, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def _effect(case, obs, rel, lo, hi, n=4):
+    return {"shape": "dimer", "n_spheres": 2, "youngs_modulus": 1e8, "restitution": 0.9, "friction": 0.5,
+            "protocol": "paired", "case": case, "observable": obs, "n_pairs": n, "relative": rel,
+            "relative_ci_low": lo, "relative_ci_high": hi, "mass_error": 0.185, "k2_error": -0.1,
+            "yade_version": "2025.2", "rot_algorithm": "delValle2023"}
+
+
+def _pred(shape, case, obs, p, se, e=0.9, mu=0.5):
+    return {"shape": shape, "youngs_modulus": "1e+08", "restitution": e, "friction": mu, "case": f"{case}/paired",
+            "observable": obs, "predicted": p, "predicted_se": se, "cpu_s": 10, "gas_relative": "", "gas_ci_low": "",
+            "gas_ci_high": ""}
+
+
+def test_the_predictor_record_counts_gas_intervals_that_meet_their_prediction(tmp_path):
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035),
+                                          _effect("uncorrected", "diffusion", 0.03, 0.025, 0.035),
+                                          _effect("mass_only", "cooling_rate", 0.0, -0.2, 0.2, n=1)])
+    _write(tmp_path / "predictions.csv", [_pred("dimer", "uncorrected", "cooling_rate", -0.041, 0.002),
+                                          _pred("dimer", "uncorrected", "diffusion", 0.0, 0.001),
+                                          _pred("tet", "uncorrected", "diffusion", 0.01, 0.001),
+                                          _pred("grain", "uncorrected", "diffusion", 0.01, 0.001, e=1, mu=0)])
+    _write(tmp_path / "hcs_theory.csv", [{"observable": "cooling_rate", "restitution": 0.9, "friction": 0,
+                                          "measured": 0.15, "ci_low": 0.149, "ci_high": 0.151, "theory": 0.1505,
+                                          "theory_name": "Haff", "theory_accuracy": 0.003}])
+    theory, clumps, record, predicted = tables.cooling_tables(str(tmp_path))
+    assert theory[0]["theory_inside"] and abs(theory[0]["halfwidth"] - 0.001 / 0.15) < 1e-12
+    assert (record["n"], record["overlap"], record["apart"]) == (2, 1, 1)       # one seed: no interval, not counted
+    assert record["apart_rows"][0]["observable"] == "diffusion"
+    assert record["targets_met"] == 2                                            # 0.5 % half-widths
+    assert [p["shape"] for p in predicted] == ["tet"]                            # the elastic grain is not a cooling row
+    text = render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted)
+    assert "of 2 gas intervals with a prediction, 1 meet" in text and "dimer mu = 0.5 uncorrected diffusion" in text
+    assert "-4.10 % ± 0.20 %" in text
