@@ -33,14 +33,14 @@ YADE = {
     "test_baselines_yade.py", "test_debian13_unprivileged.py", "test_decks_yade.py", "test_engine_yade_export.py", "test_kinetic.py",
     "test_hcs_yade.py", "test_study_analysis.py", "test_study_engine.py", "test_timestep.py", "test_yade_adapter.py", "test_yade_dynamics.py",
     "test_yade_executable.py", "test_yade_guards.py", "test_yade_lifecycle.py", "test_yade_registry.py",
-    "test_predict.py",
+    "test_predict.py", "test_predict_cooling.py",
 }
 
 SLOW = {
     "test_audit_liggghts.py", "test_decks.py", "test_granular_gas_rigid.py", "test_gk_sensitivity.py", "test_hcs_yade.py",
     "test_kinetic.py", "test_report.py", "test_study_analysis.py",
     "test_study_engine.py", "test_sweep_script.py", "test_timestep.py", "test_yade_registry.py",
-    "test_predict.py",
+    "test_predict.py", "test_predict_cooling.py",
 }
 
 MARKERS = {"library": LIBRARY, "yade": YADE, "slow": SLOW}
