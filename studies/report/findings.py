@@ -173,7 +173,8 @@ def facts(plans, effect_rows, maps, share, sph, rrows, ratio_rows, hsmd, vacf, r
                 paired=_spec_cost(plans, "dimer_paired"), equal=_spec_cost(plans, "dimer_equal_energy"),
                 shapes_spec=_spec_cost(plans, "shapes"), stiffness_spec=_spec_cost(plans, "stiffness"),
                 shapes=_shapes(effect_rows, maps, checks), rates=_rates(rrows, ratio_rows),
-                kinetic=_kinetic(sph, hsmd, vacf, results), **_paper_dimer(effect_rows, maps, words))
+                kinetic=_kinetic(sph, hsmd, vacf, results), cooling=tables.cooling_tables(results),
+                **_paper_dimer(effect_rows, maps, words))
 
 
 def write(path=FINDINGS, **kwargs):
