@@ -183,8 +183,12 @@ def plot(fits, checks, path):
     import matplotlib.pyplot as plt
 
     n = len(fits)
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6), squeeze=False)
-    for ax, (key, (f, g)) in zip(axes[0], fits.items()):
+    ncols = min(n, 4)
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.6 * nrows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    for ax, (key, (f, g)) in zip(axes.flat, fits.items()):
         a, b = f["coef"]
         x = np.array([p["k2_error"] for p in g])
         y = np.array([p["relative"] - b * softness(p["youngs_modulus"]) * p["mass_error"] for p in g])
