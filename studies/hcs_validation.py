@@ -126,10 +126,13 @@ def start_ratio(s):
 def bracketed_ratio(below, above, t_lo):
     """The settled HCS ratio r from two runs of one seed that approach it from both sides.
 
-    If T_rot / T_tr relaxes linearly, r(t) - r = (r(0) - r) E(t) with one decay E(t) for both runs,
-    then at every time r = (r_a r0_b - r_b r0_a) / (r_a - r_b + r0_b - r0_a) (subscripts: the run
-    from below and from above, 0 their starts).  The estimate is its mean over the frames from
-    ``t_lo`` to the end of the shorter run (or of its homogeneous window).  That it does not drift
+    If T_rot / T_tr relaxes linearly in the number of collisions, r(c) - r = (r(0) - r) E(c) with one
+    decay E(c) for both runs, then at every collision count c the value is
+    r = (r_a r0_b - r_b r0_a) / (r_a - r_b + r0_b - r0_a) (subscripts: the run from below and from
+    above, 0 their starts).  The runs are compared at equal c = int sqrt(T_tr / T_tr(0)) dt, not at
+    equal times: the spinning run carries more energy, keeps a higher T_tr and collides faster.  The
+    estimate is the mean over the frames of the run from below from ``t_lo`` on, while both runs are
+    homogeneous.  That it does not drift
     with ``t_lo`` is the check of the linear relaxation (docs/hcs.md).
 
     Parameters
@@ -143,21 +146,28 @@ def bracketed_ratio(below, above, t_lo):
     -------
     float
     """
-    ends, rs, r0 = [], [], []
+    clocks, rs, r0 = [], [], []
     for s in (below, above):
         t = np.asarray(s["t"], float)
         t_tr, t_rot = hcs.temperatures(np.asarray(s["e_trans"], float), np.asarray(s["e_rot"], float),
                                        int(s["n_particles"]), int(s["rot_dof"]))
-        ends.append(min(t[-1], hcs.homogeneous_until(t, np.asarray(s["count_ratio"], float),
-                                                     int(s["cells_per_side"]) ** 3)))
-        rs.append((t, t_rot / t_tr))
+        end = min(t[-1], hcs.homogeneous_until(t, np.asarray(s["count_ratio"], float), int(s["cells_per_side"]) ** 3))
+        keep = t <= end + 1e-12
+        # the collision clock: collisions per particle go as sqrt(T_tr), so c = int sqrt(T_tr / T_tr(0)) dt
+        g = np.sqrt(t_tr[keep] / t_tr[0])
+        c = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(t[keep]))])
+        clocks.append((t[keep], c))
+        rs.append((t_rot / t_tr)[keep])
         r0.append(float(t_rot[0] / t_tr[0]))
-    (tb, rb), (ta, ra) = rs
-    sel = (tb >= t_lo - 1e-12) & (tb <= min(ends) + 1e-12)
-    if sel.sum() < 4:
-        raise ValueError(f"the window [{t_lo:g}, {min(ends):g}] s holds {int(sel.sum())} frames; need >= 4")
-    rb_w, ra_w = rb[sel], np.interp(tb[sel], ta, ra)
-    return float(np.mean((ra_w * r0[0] - rb_w * r0[1]) / (ra_w - rb_w + r0[0] - r0[1])))
+    (tb, cb), (_, ca) = clocks
+    rb, ra = rs
+    sel = (tb >= t_lo - 1e-12) & (cb <= ca[-1])
+    rb_w, ra_w = rb[sel], np.interp(cb[sel], ca, ra)
+    den = ra_w - rb_w + r0[0] - r0[1]
+    ok = np.abs(den) > 1e-3 * abs(r0[1] - r0[0])
+    if ok.sum() < 4:
+        raise ValueError(f"the window from {t_lo:g} s holds {int(ok.sum())} usable frames; need >= 4")
+    return float(np.mean((ra_w[ok] * r0[0] - rb_w[ok] * r0[1]) / den[ok]))
 
 
 def _row(observable, e, mu, values, theory, name):

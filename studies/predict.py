@@ -227,11 +227,12 @@ def prediction_rows(name, shape, law, rows, gas, hcs_gas=None):
     return out
 
 
-def merged(rows, path, gas=None):
+def merged(rows, path, gas=None, hcs_gas=None):
     """``rows`` with the rows of the table at ``path`` that they do not replace: a row of another
     (shape, youngs_modulus, restitution, friction) stays, its gas columns brought up to date from
     ``gas`` (:func:`gas_intervals`) where its shape is a template (effects.csv names it by the
-    template's file stem, with no overlap).
+    template's file stem, with no overlap), and from ``hcs_gas`` (:func:`hcs_intervals`) for a
+    cooling row.
 
     Parameters
     ----------
@@ -241,6 +242,8 @@ def merged(rows, path, gas=None):
         The table (absent: ``rows`` alone).
     gas : dict, optional
         The committed elastic gas intervals.
+    hcs_gas : dict, optional
+        The committed cooling gas intervals.
 
     Returns
     -------
@@ -257,8 +260,12 @@ def merged(rows, path, gas=None):
         if law(r) in new or set(r) != set(COLUMNS):
             continue
         case, _, prot = r["case"].partition("/")
-        g = (gas or {}).get((r["shape"], "", prot, float(r["youngs_modulus"]), case))
-        if g is not None and is_elastic((float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]))):
+        contact = (float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]))
+        if is_elastic(contact):
+            g = (gas or {}).get((r["shape"], "", prot, contact[0], case))
+        else:
+            g = (hcs_gas or {}).get((r["shape"], *contact, case, r["observable"]))
+        if g is not None:
             r = dict(r, gas_relative=f"{g[0]:.6g}", gas_ci_low=f"{g[1]:.6g}", gas_ci_high=f"{g[2]:.6g}")
         kept.append(r)
     return kept + list(rows)
@@ -366,7 +373,7 @@ def _predict(a, spec):
                      f"at r* {100 * r['root_check']:.2f} %" if "ratio_exact" in r else ""))
         print(f"[predict] {name}: CPU {cpu / 60:.1f} min", flush=True)
         table += prediction_rows(name, shape, law, rows, gas, hcs_gas)
-    write_table(merged(table, a.out, gas), a.out)
+    write_table(merged(table, a.out, gas, hcs_gas), a.out)
     print(f"[predict] wrote {os.path.relpath(a.out, ROOT)}; wall {(time.time() - t0) / 60:.1f} min")
     return 0
 

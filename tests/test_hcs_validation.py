@@ -187,3 +187,22 @@ def test_the_committed_rough_runs_give_one_settled_ratio_from_any_window_start()
     for a in got:
         for b in got:
             assert b["ci_low"] <= a["measured"] <= b["ci_high"]
+
+
+def test_the_bracket_compares_the_runs_at_equal_collision_counts():
+    """The spinning run cools from a higher T_tr and relaxes faster in time; in collision counts both
+    relax alike.  Compared at equal times the estimate would be biased; at equal counts it is not."""
+    t = np.linspace(0.0, 20.0, 801)
+
+    def run(r0, t_tr, seed):
+        g = np.sqrt(t_tr / t_tr[0])
+        c = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(t))])
+        r = 0.66 + (r0 - 0.66) * np.exp(-0.3 * c)
+        return {"t": t, "e_trans": 1.5 * N * t_tr, "e_rot": 1.5 * N * r * t_tr, "count_ratio": np.ones_like(t),
+                "cells_per_side": 4, "n_particles": N, "rot_dof": 3, "seed": seed}
+
+    below = run(0.0, 2.0 / (1 + t / 6.0) ** 2, 1)
+    above = run(1.0, 2.0 / (1 + t / 4.0) ** 2, 1)
+    for t_lo in (2.0, 5.0, 10.0):
+        assert V.bracketed_ratio(below, above, t_lo) == pytest.approx(0.66, abs=1e-3)
+    assert not math.isnan(V.bracketed_ratio(below, above, 0.0))       # the start's 0/0 is left out
