@@ -166,21 +166,31 @@ def rows(records, t_transient=T_TRANSIENT):
     return out
 
 
-def write(path, rows_):
-    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS`.
+def write_csv(path, columns, rows_, fmt=".10g"):
+    """Write ``rows_`` (dicts) as CSV with the header ``columns``: floats as ``fmt``, None as an
+    empty cell (the tables of the cooling gases: ``hcs_theory.csv``, ``hcs_effects.csv``, ``law.csv``).
 
     Parameters
     ----------
     path : str
-        The CSV file (``results/hcs_effects.csv``).
+        The CSV file.
+    columns : sequence of str
+        The header, in order.
     rows_ : list of dict
         The rows.
+    fmt : str, optional
+        Format of a float.
     """
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w = csv.DictWriter(f, fieldnames=columns)
         w.writeheader()
         for r in rows_:
-            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else ("" if v is None else v)) for k, v in r.items()})
+            w.writerow({k: (format(v, fmt) if isinstance(v, float) else ("" if v is None else v)) for k, v in r.items()})
+
+
+def write(path, rows_):
+    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS` (``results/hcs_effects.csv``)."""
+    write_csv(path, COLUMNS, rows_)
 
 
 def main(argv=None):

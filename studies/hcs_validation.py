@@ -28,6 +28,7 @@ import sys
 import numpy as np
 
 from . import hcs, hcs_theory
+from .hcs_effects import write_csv
 from .intervals import t_interval
 
 COLUMNS = ("observable", "restitution", "friction", "measured", "ci_low", "ci_high", "theory", "theory_name",
@@ -230,22 +231,8 @@ def rows(runs, ratio_theory=None, t_transient=0.0):
 
 
 def write(path, rows_):
-    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS`.
-
-    Parameters
-    ----------
-    path : str
-        The CSV file (``results/hcs_theory.csv``).
-    rows_ : list of dict
-        The rows.
-    """
-    import csv
-
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows_:
-            w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else v) for k, v in r.items()})
+    """Write ``rows_`` (:func:`rows`) as CSV with the columns :data:`COLUMNS` (``results/hcs_theory.csv``)."""
+    write_csv(path, COLUMNS, rows_)
 
 
 def main(argv=None):

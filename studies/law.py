@@ -37,6 +37,7 @@ import numpy as np
 
 from . import effects
 from . import spec as S
+from .hcs_effects import write_csv
 
 ROOT = S.ROOT
 OUT = os.path.join(ROOT, "results", "law.csv")
@@ -214,11 +215,8 @@ def plot(fits, checks, path):
 
 
 def write(rows, path):
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (f"{v:.6g}" if isinstance(v, (float, np.floating)) else v) for k, v in r.items()})
+    """Write ``law_rows``' rows as CSV with the columns :data:`COLUMNS`."""
+    write_csv(path, COLUMNS, rows, ".6g")
 
 
 def main(argv=None):

@@ -103,6 +103,16 @@ def gas_key(name, shape):
     return shape["kind"], f"{float(shape['overlap']):g}"
 
 
+def _intervals(path, key, keep=lambda r: True):
+    """``{key(row): (relative, ci_low, ci_high)}`` of the rows of an effects table that ``keep``;
+    empty when ``path`` does not exist."""
+    if not os.path.exists(path):
+        return {}
+    with open(path, newline="") as f:
+        return {key(r): tuple(float(r[k]) for k in ("relative", "relative_ci_low", "relative_ci_high"))
+                for r in csv.DictReader(f) if keep(r)}
+
+
 def gas_intervals(path=EFFECTS):
     """The committed gas effects: (shape, overlap, protocol, youngs_modulus, case) -> (relative,
     ci_low, ci_high); empty when ``path`` does not exist.
@@ -116,21 +126,13 @@ def gas_intervals(path=EFFECTS):
     -------
     dict
     """
-    if not os.path.exists(path):
-        return {}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    out = {}
-    for r in rows:
-        ov = f"{float(r['overlap']):g}" if r["overlap"] else ""
-        key = (r["shape"], ov, r["protocol"], float(r["youngs_modulus"]), r["case"])
-        out[key] = tuple(float(r[k]) for k in ("relative", "relative_ci_low", "relative_ci_high"))
-    return out
+    return _intervals(path, lambda r: (r["shape"], f"{float(r['overlap']):g}" if r["overlap"] else "", r["protocol"],
+                                       float(r["youngs_modulus"]), r["case"]))
 
 
 def hcs_intervals(path=HCS_EFFECTS):
-    """The committed cooling-gas effects: (shape, youngs_modulus, restitution, friction, case,
-    observable) -> (relative, ci_low, ci_high); empty when ``path`` does not exist.
+    """The committed cooling-gas effects of the paired protocol: (shape, youngs_modulus, restitution,
+    friction, case, observable) -> (relative, ci_low, ci_high); empty when ``path`` does not exist.
 
     Parameters
     ----------
@@ -141,13 +143,9 @@ def hcs_intervals(path=HCS_EFFECTS):
     -------
     dict
     """
-    if not os.path.exists(path):
-        return {}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {(r["shape"], float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]), r["case"],
-             r["observable"]): tuple(float(r[k]) for k in ("relative", "relative_ci_low", "relative_ci_high"))
-            for r in rows if r["protocol"] == "paired"}
+    return _intervals(path, lambda r: (r["shape"], float(r["youngs_modulus"]), float(r["restitution"]),
+                                       float(r["friction"]), r["case"], r["observable"]),
+                      keep=lambda r: r["protocol"] == "paired")
 
 
 def yade_for(shape, density, friction=0.0):
