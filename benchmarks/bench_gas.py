@@ -7,7 +7,8 @@
 2. Correction bodies: the exact dimer as the study builds it now (``appendClumped`` with the
    exact mass and I_perp set: 3 bodies per clump) against the first version's build
    (``clumpprops.yade.append_clump``: one extra correction member per clump), side by side.
-2b. Collider padding: the study's ``verletDist`` (three bounding radii, set by the gas script)
+2b. Collider padding: the study's ``verletDist`` (three bounding radii, capped by the cell and
+   the member spacing, set by the gas script)
    against YADE's default (run file ``verlet_dist = -0.5``), side by side; the trajectories are
    the same to the last bit (tests/test_study_engine.py), so this is speed only.
 3. Driver + Dask overhead per run: a sweep of N tiny runs (27 particles, 1.5 s) on a
@@ -197,7 +198,7 @@ def main():
         print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | recorded {r['steps_per_s_recorded']:.0f} "
               f"steps/s, bare {r['steps_per_s_bare']:.0f} steps/s, ratio {r['ratio']:.3f} (target >= 0.95) |")
     for r in res.get("collider", []):
-        print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | collider padded 3 bounding radii "
+        print(f"| 864-dimer gas, {r['steps']} steps, pair {r['repeat']} | collider padded by the study's rule "
               f"{r['steps_per_s_padded']:.0f} steps/s, YADE's default {r['steps_per_s_default']:.0f} steps/s, "
               f"ratio {r['ratio']:.3f}; CPU {r['cpu_s_padded']:.1f} s against {r['cpu_s_default']:.1f} s, "
               f"ratio {r['cpu_ratio']:.3f} |")

@@ -518,8 +518,9 @@ def test_collider_verlet_distance_is_speed_only(tmp_path):
     (za, fa), (zb, fb) = outs["study"], outs["default"]
     rb, r = 0.0333 + 0.0667, 0.0667                       # the dimer's bounding and member radii
     assert fb["verlet_dist"] == -0.5
-    assert fa["verlet_dist"] == pytest.approx(min(3 * rb, rin["box_length"] / 8 - r), rel=1e-3)
-    assert fa["verlet_dist"] > 0.1                        # padded well beyond the default 0.033 m
+    spacing = rin["box_length"] / (2 * len(rin["initial"]["pos"])) ** (1 / 3)   # two members per dimer
+    assert fa["verlet_dist"] == pytest.approx(min(3 * rb, rin["box_length"] / 8 - r, spacing / 4), rel=1e-3)
+    assert fa["verlet_dist"] > 2 * 0.0333                 # padded well beyond the default 0.033 m
     assert za["e_elastic"].max() > 0                      # the gas collided
     for k in ("disp", "vel", "e_trans", "e_rot", "e_elastic", "momentum"):
         np.testing.assert_array_equal(za[k], zb[k])
