@@ -31,7 +31,7 @@ from scipy import optimize
 
 from . import hcs_theory
 
-__all__ = ["rotational_dof", "temperatures", "fit_haff", "temperature_ratio", "scaled_time", "msd_from_start",
+__all__ = ["rotational_dof", "temperatures", "fit_haff", "haff_amplitude", "temperature_ratio", "scaled_time", "msd_from_start",
            "fit_scaled_msd", "count_variance_ratio", "homogeneous_until", "haff_theory", "series",
            "analyse_series", "analyse"]
 
@@ -136,6 +136,31 @@ def fit_haff(t, temperature, t_lo=0.0, t_hi=None):
     return {"t0": t0, "tau0": tau0, "zeta0": 2.0 / tau0, "t0_se": t0 * float(se[0]),
             "tau0_se": tau0 * float(se[1]), "zeta0_se": 2.0 / tau0 * float(se[1]),
             "rms_log": float(np.sqrt(np.mean(resid ** 2)))}
+
+
+def haff_amplitude(t, temperature, tau0, t_lo=0.0, t_hi=None):
+    """T0 of Haff's law T(t) = T0 / (1 + t / tau0)^2 with tau0 given: the geometric mean of
+    T (1 + t / tau0)^2 over a window (least squares on ln T in the one free parameter).
+
+    Parameters
+    ----------
+    t, temperature : array_like
+        Times (s) and temperatures (J) per frame.
+    tau0 : float
+        Haff's time (s).
+    t_lo, t_hi : float, optional
+        The window (s); ``t_hi`` None: to the last frame.
+
+    Returns
+    -------
+    float
+        T0 (J).
+    """
+    t, temp = np.asarray(t, float), np.asarray(temperature, float)
+    sel = _window(t, t_lo, t_hi)
+    if np.any(temp[sel] <= 0) or not tau0 > 0:
+        raise ValueError("temperatures and tau0 must be > 0")
+    return float(np.exp(np.mean(np.log(temp[sel]) + 2.0 * np.log1p(t[sel] / tau0))))
 
 
 def temperature_ratio(t, t_tr, t_rot, t_lo, t_hi=None, n_blocks=8):

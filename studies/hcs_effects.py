@@ -5,14 +5,16 @@ analyses every run with :func:`studies.hcs.analyse_series` and pairs each case w
 of the same seed and parameters (the paired protocol: one initial state per seed).  Per seed, the
 relative effect ``X_case / X_exact - 1`` of three observables:
 
-* ``cooling_rate``: zeta = 2 / tau0 of Haff's fit to T_tr past the transient, at the start
-  temperature (zeta scales as sqrt(T_tr): zeta0 sqrt(T_start / T0) with the fit's T0);
+* ``cooling_rate``: zeta = 2 / tau0 past the transient, at the start temperature (zeta scales as
+  sqrt(T_tr): zeta0 sqrt(T_start / T0)), with tau0 from Haff's fit to the total kinetic energy
+  and T0 the T_tr amplitude at that tau0 (:func:`studies.hcs.haff_amplitude`);
 * ``temperature_ratio``: T_rot / T_tr averaged over the window after the transient;
 * ``diffusion``: D0 from the MSD against the scaled time ln(1 + t / tau0), at the start
   temperature as zeta.
 
-The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`),
-the estimator of ``results/effects.csv`` (its coverage: ``tests/test_estimators.py``).
+The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`).
+The bias and coverage of these estimators on synthetic cooling gases with a known answer:
+``python -m studies hcs-estimator`` (:mod:`studies.hcs_estimator`, ``results/estimator/hcs_cooling.csv``).
 """
 from __future__ import annotations
 
@@ -77,15 +79,19 @@ def observables(series, t_transient=T_TRANSIENT):
         (NaN without rotation).
     """
     a = hcs.analyse_series(series, t_transient=t_transient, fit_from=t_transient)
-    f_rot = int(series["rot_dof"])
-    t_start = hcs.temperatures(np.asarray(series["e_trans"][:1], float), np.asarray(series["e_rot"][:1], float),
-                               int(series["n_particles"]), f_rot)[0][0]
+    t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
+    t_tr, _ = hcs.temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
+    t_hom = a["t_end_homogeneous"]
+    # Haff's time from the total kinetic energy, which only the collisions' dissipation changes (T_tr
+    # alone also trades energy with rotation): in the HCS both decay at one rate
+    tau0 = hcs.fit_haff(t, e_tr + e_rot, t_transient, t_hom)["tau0"]
     # zeta and D of a cooling gas scale as sqrt(T_tr): both at the start temperature, which every case
     # of a paired seed shares (per unit mass), not at the fit's T0, which the transient moves
-    scale = math.sqrt(t_start / a["haff"]["t0"])
-    return {"cooling_rate": a["haff"]["zeta0"] * scale,
+    scale = math.sqrt(t_tr[0] / hcs.haff_amplitude(t, t_tr, tau0, t_transient, t_hom))
+    msd = hcs.fit_scaled_msd(t, np.asarray(series["msd"], float), tau0, min(t_transient, t[-4]), t_hom)
+    return {"cooling_rate": 2.0 / tau0 * scale,
             "temperature_ratio": a["ratio"]["ratio"] if a["ratio"] is not None else float("nan"),
-            "diffusion": a["msd"]["d0"] * scale}
+            "diffusion": msd["d0"] * scale}
 
 
 def paired(records, t_transient=T_TRANSIENT):
@@ -166,6 +172,77 @@ def rows(records, t_transient=T_TRANSIENT):
     return out
 
 
+RELAXATION_COLUMNS = ("shape", "n_spheres", "restitution", "friction", "case", "n_runs", "drift", "drift_ci_low",
+                      "drift_ci_high", "window_start", "window_end")
+
+
+def ratio_drift(series, t_transient=T_TRANSIENT):
+    """How far T_rot / T_tr still moves in a run's analysed window: the mean of its second half over
+    the mean of its first half, minus one (0 in the HCS, where the ratio is constant).
+
+    Parameters
+    ----------
+    series : mapping
+        The run's HCS series.
+    t_transient : float, optional
+        The window starts here (s) and ends where the gas stops being homogeneous.
+
+    Returns
+    -------
+    (float, float, float)
+        The drift, and the window's start and end (s); NaN drift without rotation or frames.
+    """
+    t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
+    t_tr, t_rot = hcs.temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
+    t_hom = hcs.homogeneous_until(t, np.asarray(series["count_ratio"], float), int(series["cells_per_side"]) ** 3)
+    sel = (t >= t_transient) & (t <= t_hom)
+    if sel.sum() < 4 or np.max(e_rot) <= 1e-9 * e_tr[0]:
+        return float("nan"), t_transient, t_hom
+    r = (t_rot / t_tr)[sel]
+    half = len(r) // 2
+    return float(r[half:].mean() / r[:half].mean() - 1.0), t_transient, t_hom
+
+
+def relaxation_rows(records, t_transient=T_TRANSIENT):
+    """Rows of ``results/hcs_relaxation.csv``: per shape, contact law and case (exact included),
+    the mean :func:`ratio_drift` of its runs with a Student-t interval over them.  An interval that
+    excludes 0 says the window still holds part of the relaxation from the equipartition start, so
+    that group's T_rot / T_tr (and, less, its cooling rate) is not yet the HCS value
+    (``results/estimator/hcs_cooling.csv`` measures that bias on synthetic gases).
+
+    Parameters
+    ----------
+    records : list of dict
+        Reduced records of cooling clump runs (:func:`load_records`).
+    t_transient : float, optional
+        As :func:`observables`.
+
+    Returns
+    -------
+    list of dict
+    """
+    groups = {}
+    for rec in records:
+        p = rec["params"]
+        key = (json.dumps(_pair_facts(p), sort_keys=True), rec["case"])
+        groups.setdefault(key, {"params": p, "case": rec["case"], "vals": []})["vals"].append(
+            ratio_drift(rec["hcs"], t_transient))
+    out = []
+    for g in groups.values():
+        vals = [v for v in g["vals"] if math.isfinite(v[0])]
+        if len(vals) < 2:
+            continue
+        m, lo, hi, _, n = t_interval([v[0] for v in vals])
+        p, mat = g["params"], g["params"]["material"]
+        out.append({"shape": shape_name(p["shape"]["definition"]), "n_spheres": len(p["shape"]["radii"]),
+                    "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0)),
+                    "case": g["case"], "n_runs": n, "drift": m, "drift_ci_low": lo, "drift_ci_high": hi,
+                    "window_start": float(np.mean([v[1] for v in vals])),
+                    "window_end": float(np.mean([v[2] for v in vals]))})
+    out.sort(key=lambda r: (r["shape"], r["friction"], r["restitution"], r["case"]))
+    return out
+
+
 def write_csv(path, columns, rows_, fmt=".10g"):
     """Write ``rows_`` (dicts) as CSV with the header ``columns``: floats as ``fmt``, None as an
     empty cell (the tables of the cooling gases: ``hcs_theory.csv``, ``hcs_effects.csv``, ``law.csv``).
@@ -213,7 +290,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m studies hcs-effects",
                                  description="Each case's relative effect on the cooling rate, T_rot / T_tr and the "
                                              "HCS self-diffusion of clump gases, from the committed run records.",
-                                 epilog="Writes results/hcs_effects.csv (or --out). Intervals: Student-t over seeds.")
+                                 epilog="Writes results/hcs_effects.csv (or --out) and hcs_relaxation.csv beside it. "
+                                        "Intervals: Student-t over seeds.")
     ap.add_argument("specs", nargs="*", default=["hcs_clumps"], help="cooling clump studies (default: hcs_clumps)")
     ap.add_argument("--t-transient", type=float, default=T_TRANSIENT, metavar="S",
                     help=f"frames before it are left out of every fit (default: {T_TRANSIENT:g} s)")
@@ -228,9 +306,11 @@ def main(argv=None):
         print(f"[hcs-effects] no paired cooling-run records in {', '.join(a.specs)}", file=sys.stderr)
         return 1
     write(a.out, out)
+    relax = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_relaxation.csv")
+    write_csv(relax, RELAXATION_COLUMNS, relaxation_rows(records, a.t_transient))
     for r in out:
         print(f"[hcs-effects] {r['shape']} e={r['restitution']:g} mu={r['friction']:g} {r['case']:>12} "
               f"{r['observable']:>17}: {100 * r['relative']:+.2f} % [{100 * r['relative_ci_low']:+.2f}, "
               f"{100 * r['relative_ci_high']:+.2f}] ({r['n_pairs']} pairs)")
-    print(f"[hcs-effects] wrote {a.out}")
+    print(f"[hcs-effects] wrote {a.out} and {relax}")
     return 0

@@ -83,3 +83,20 @@ def test_runs_without_their_exact_seed_are_left_out_and_the_csv_has_the_fixed_co
     assert tuple(got[0]) == H.COLUMNS and len(got) == 3
     assert math.isclose(float(got[0]["relative"]), rows[0]["relative"], rel_tol=1e-9)
     assert not H.rows([r for r in recs if r["case"] == "uncorrected"])
+
+
+def test_the_relaxation_rows_flag_a_ratio_still_moving_in_the_window():
+    """Runs whose T_rot / T_tr keeps falling through the window (no transient modelled) against runs
+    settled after 5 s: the drift interval excludes 0 only for the first."""
+    recs = _records({o: 0.0 for o in H.OBSERVABLES})
+    moving = []
+    for r in recs:
+        s = dict(r["hcs"])
+        t = np.asarray(s["t"])
+        s["e_rot"] = (np.asarray(s["e_rot"]) * (1 - 0.01 * t)).tolist()      # ratio falls 1 % per second
+        moving.append(dict(r, hcs=s))
+    for rows, still in ((H.relaxation_rows(recs), False), (H.relaxation_rows(moving), True)):
+        assert {r["case"] for r in rows} == {"exact", "uncorrected"} and all(r["n_runs"] == 4 for r in rows)
+        for r in rows:
+            assert (r["drift_ci_high"] < 0) == still, r
+            assert r["window_start"] == 5.0 and r["window_end"] == 40.0

@@ -45,3 +45,25 @@ def test_the_predictor_record_counts_gas_intervals_that_meet_their_prediction(tm
     text = render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted)
     assert "of 2 gas intervals with a prediction, 1 meet" in text and "dimer mu = 0.5 uncorrected diffusion" in text
     assert "-4.10 % ± 0.20 %" in text
+
+
+def test_the_cooling_checks_name_groups_still_relaxing_and_estimators_that_miss(tmp_path):
+    relax = [{"shape": "dimer", "n_spheres": 2, "restitution": 0.9, "friction": f, "case": "exact", "n_runs": 4,
+              "drift": d, "drift_ci_low": d - 0.02, "drift_ci_high": d + 0.02, "window_start": 5, "window_end": 30}
+             for f, d in ((0.0, 0.01), (0.5, -0.08))]
+    _write(tmp_path / "hcs_relaxation.csv", relax)
+    (tmp_path / "estimator").mkdir()
+    est = [{"setting": s, "observable": "temperature_ratio", "estimator": "mean", "n_seeds": 4, "n_studies": 100,
+            "truth": -0.1, "truth_se": 0.001, "mean": -0.1 + b, "bias": b, "bias_se": 0.002, "sd_per_seed": 0.03,
+            "mean_halfwidth": 0.04, "coverage": c, "coverage_low": c - 0.05, "coverage_high": min(c + 0.05, 1.0)}
+           for s, b, c in (("rough", 0.001, 0.95), ("weakly_rough", 0.17, 0.0))]
+    _write(tmp_path / "estimator" / "hcs_cooling.csv", est)
+    e, moving, n = tables.cooling_checks(str(tmp_path))
+    assert n == 2 and [r["friction"] for r in moving] == [0.5]
+    assert [r["covers"] for r in e] == [True, False] and [r["unbiased"] for r in e] == [True, False]
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035)])
+    _, clumps, _, _ = tables.cooling_tables(str(tmp_path))
+    text = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], estimator=e, moving=moving,
+                  n_relax=n)
+    assert "In 1 of 2 groups the ratio still moves (dimer mu = 0.5 exact: -8.00 % [-10.0, -6.0] %)" in text
+    assert "| weakly_rough | temperature_ratio | mean | -10.00 % | +17.00 ± 0.20 % |" in text and "(not 95 %)" in text

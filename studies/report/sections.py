@@ -73,7 +73,9 @@ def cooling_section(lines, results):
     """The dissipative and frictional gases: the sphere validations, each clump case's effect in the
     HCS beside its prediction, the predictor's record (:func:`tables.cooling_tables`)."""
     theory, clumps, record, predicted = tables.cooling_tables(results)
-    lines += _lines(render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted))
+    est, moving, n_relax = tables.cooling_checks(results)
+    lines += _lines(render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted,
+                           estimator=est, moving=moving, n_relax=n_relax))
 
 
 def law_section(lines, results):

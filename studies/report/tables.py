@@ -301,3 +301,17 @@ def cooling_tables(results):
                                                       for c in clumps)) if clumps else None
     predicted = [p for k, p in preds.items() if k not in used]
     return theory, clumps, record, predicted
+
+
+def cooling_checks(results):
+    """The cooling estimators' checks: (rows of ``results/estimator/hcs_cooling.csv``, the bias and
+    coverage on synthetic DSMC gases; rows of ``results/hcs_relaxation.csv`` whose drift interval
+    excludes 0, the clump groups whose T_rot / T_tr still moves in the analysed window; the number
+    of groups checked)."""
+    est = []
+    for r in _csv_rows(os.path.join(results, "estimator", "hcs_cooling.csv")):
+        est.append(dict(r, covers=r["coverage_low"] <= 0.95 <= r["coverage_high"],
+                        unbiased=abs(r["bias"]) <= 2 * r["bias_se"]))
+    relax = _csv_rows(os.path.join(results, "hcs_relaxation.csv"))
+    moving = [r for r in relax if r["drift_ci_high"] < 0 or r["drift_ci_low"] > 0]
+    return est, moving, len(relax)
