@@ -137,6 +137,13 @@ def paired(records, t_transient=T_TRANSIENT):
     return out
 
 
+def _group_fields(params):
+    """The columns that name a run's shape and contact law: shape, n_spheres, restitution, friction."""
+    mat = params["material"]
+    return {"shape": shape_name(params["shape"]["definition"]), "n_spheres": len(params["shape"]["radii"]),
+            "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0))}
+
+
 def rows(records, t_transient=T_TRANSIENT):
     """Rows of ``results/hcs_effects.csv`` (columns :data:`COLUMNS`).
 
@@ -161,9 +168,8 @@ def rows(records, t_transient=T_TRANSIENT):
             if not vals:
                 continue
             m, lo, hi, _, n = t_interval(vals)
-            out.append({"shape": shape_name(shape), "n_spheres": len(p["shape"]["radii"]),
-                        "youngs_modulus": float(mat["youngs_modulus"]), "restitution": float(mat.get("restitution", 1.0)),
-                        "friction": float(mat.get("friction", 0.0)), "protocol": p["protocol"], "case": case,
+            out.append({**_group_fields(p), "youngs_modulus": float(mat["youngs_modulus"]),
+                        "protocol": p["protocol"], "case": case,
                         "observable": o, "n_pairs": n, "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
                         **case_errors(shape, float(mat["density"]), case),
                         "yade_version": ";".join(sorted(slot["yade_version"])),
@@ -233,10 +239,7 @@ def relaxation_rows(records, t_transient=T_TRANSIENT):
         if len(vals) < 2:
             continue
         m, lo, hi, _, n = t_interval([v[0] for v in vals])
-        p, mat = g["params"], g["params"]["material"]
-        out.append({"shape": shape_name(p["shape"]["definition"]), "n_spheres": len(p["shape"]["radii"]),
-                    "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0)),
-                    "case": g["case"], "n_runs": n, "drift": m, "drift_ci_low": lo, "drift_ci_high": hi,
+        out.append({**_group_fields(g["params"]), "case": g["case"], "n_runs": n, "drift": m, "drift_ci_low": lo, "drift_ci_high": hi,
                     "window_start": float(np.mean([v[1] for v in vals])),
                     "window_end": float(np.mean([v[2] for v in vals]))})
     out.sort(key=lambda r: (r["shape"], r["friction"], r["restitution"], r["case"]))
