@@ -9,6 +9,8 @@
     plot     figures and the study's report page <results>/README.md from the tables
     prepare  write run files and a yade-batch table for running by hand (yade-batch)
     plan     validate the spec, list the runs still to do and estimate their CPU-hours (runs nothing)
+    rereduce give the cooling runs whose raw frames were kept (--keep-raw, <results>/raw) the
+             current reduction's HCS series in their records
 
 SPEC is a study spec (``studies/specs/*.toml``; a bare name like ``quick`` means
 ``studies/specs/quick.toml``).
@@ -78,7 +80,8 @@ def main(argv=None):
         return importlib.import_module(STUDIES[argv[0]], __package__ or "studies").main(argv[1:]) or 0
     ap = argparse.ArgumentParser(prog="python -m studies", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare", "plan"))
+    ap.add_argument("command", choices=("run", "sweep", "status", "analyze", "plot", "prepare", "plan",
+                                           "rereduce"))
     ap.add_argument("spec", help="study spec file or name (studies/specs/NAME.toml)")
     ap.add_argument("--scheduler", default=None, help="tcp://HOST:PORT of a running Dask scheduler "
                     "(default: a LocalCluster in this process, one worker per core)")
@@ -110,6 +113,11 @@ def main(argv=None):
     if a.command == "prepare":
         from . import prepare
         prepare.write(spec, a.out or "runs_prepared")
+        return 0
+    if a.command == "rereduce":
+        from . import runner
+        n, skipped = runner.rereduce(engine.results_dir(spec))
+        print(f"[rereduce] {n} record(s) refreshed from kept raw frames; {skipped} without raw frames left as they are")
         return 0
     if a.command in ("run", "sweep") and not _sweep(a, spec):
         return 1

@@ -16,9 +16,11 @@ group needs next; the analysis (:mod:`studies.analysis`) uses :func:`run_d` for 
   with a jackknife standard error over the record's particle groups.  Published intervals use
   the seeds as the independent units: a Student-t interval over per-seed values or per-seed
   paired differences.
-* **Sequential design.**  A group with ``target = {case, halfwidth, batch}`` and ``max_seeds``
-  starts with its ``seeds``; whenever all its runs are finished, the 95 % half-width of the
-  paired relative difference D_case / D_exact - 1 over seeds is compared with ``halfwidth``
+* **Sequential design.**  A group with ``target = {case, halfwidth, batch, observable}`` and
+  ``max_seeds`` starts with its ``seeds``; whenever all its runs are finished, the 95 % half-width
+  of the paired relative difference X_case / X_exact - 1 over seeds (X: D of an elastic gas; of a
+  cooling gas the target's ``observable``, ``cooling_rate``, ``temperature_ratio`` or
+  ``diffusion``, :func:`run_observable`) is compared with ``halfwidth``
   (:func:`studies.sequential.sequential_status`: a rule on the spread, never on the mean), and
   ``batch`` more seeds are added until the target is met, ``max_seeds`` is reached, or the
   spec's ``study.budget_cpu_hours`` is spent.  The added seeds follow from the records alone, so
@@ -32,7 +34,7 @@ import json
 
 import numpy as np
 
-from . import diffusion, equilibration, intervals, sequential
+from . import diffusion, equilibration, hcs, intervals, sequential
 from . import reduce as red
 from . import spec as S
 from .cost import (_key_without, _median_like, _run_cost, cost_scale, expected_wall_s,  # noqa: F401
@@ -140,15 +142,32 @@ def _sequential_runs(spec, gi, seeds):
     return out
 
 
-def paired_relative(recs_by_key, runs, case, t_eq):
-    """Per-seed D_case / D_exact - 1 for the seeds where both runs are finished and passed their
-    checks: list of (seed, value)."""
+def run_observable(rec, observable, t_eq):
+    """The value of a sequential target's observable in one run: D (Green-Kubo, :func:`run_d`) of an
+    elastic run; of a cooling run (a record with an ``hcs`` part), ``observable`` from
+    :func:`studies.hcs.effect_observables`, D0 from the multi-origin MSD grid where the record has
+    it.  NaN where the run's window cannot be analysed."""
+    if "hcs" not in rec:
+        return run_d(rec, t_eq, stderr=False)["D"]
+    try:
+        x = hcs.effect_observables(rec["hcs"])
+    except ValueError:
+        return float("nan")
+    if observable == "diffusion" and np.isfinite(x["diffusion_grid"]):
+        return x["diffusion_grid"]
+    return x[observable]
+
+
+def paired_relative(recs_by_key, runs, case, t_eq, observable="diffusion"):
+    """Per-seed X_case / X_exact - 1 of a target's observable (:func:`run_observable`) for the seeds
+    where both runs are finished, passed their checks and give a finite value: list of (seed, value)."""
     by = {}
     for r in runs:
         rec = recs_by_key.get(r["key"])
         if rec is not None and rec["checks"]["ok"]:
-            by.setdefault(r["seed"], {})[r["case"]] = run_d(rec, t_eq, stderr=False)["D"]
-    return [(s, v[case] / v["exact"] - 1.0) for s, v in sorted(by.items()) if case in v and "exact" in v]
+            by.setdefault(r["seed"], {})[r["case"]] = run_observable(rec, observable, t_eq)
+    out = [(s, v[case] / v["exact"] - 1.0) for s, v in sorted(by.items()) if case in v and "exact" in v]
+    return [(s, x) for s, x in out if np.isfinite(x)]
 
 
 def plan(spec, rdir, recs=None):
@@ -187,9 +206,10 @@ def _grow_group(spec, gi, recs, spent):
     while True:
         runs = _sequential_runs(spec, gi, seeds)
         finished = all(r["key"] in recs for r in runs)
-        pairs = paired_relative(recs, runs, target["case"], spec["analysis"]["t_eq"])
+        pairs = paired_relative(recs, runs, target["case"], spec["analysis"]["t_eq"], target["observable"])
         st = sequential.sequential_status([v for _, v in pairs], target["halfwidth"], max_n=g["max_seeds"])
-        st.update(case=target["case"], target=target["halfwidth"], seeds=len(seeds), finished=finished,
+        st.update(case=target["case"], observable=target["observable"], target=target["halfwidth"], seeds=len(seeds),
+                  finished=finished,
                   cpu_hours=spent, budget_cpu_hours=budget)
         st["state"] = _stop_state(st, runs, recs, len(seeds), g["max_seeds"], budget, spent)
         if st["state"] is not None:
@@ -390,6 +410,8 @@ def describe(gi, g, st):
     if st.get("cpu_hours_to_target") is not None:
         per = "" if st.get("cpu_hours_per_pair") is None else f"; {st['cpu_hours_per_pair']:.2f} CPU-h a new pair"
         proj += f" (about {st['cpu_hours_to_target']:.0f} CPU-h more, runs already made not counted{per})"
-    return (f"group {gi} ({shape_label(g)}: {st['case']} vs exact, {g.get('protocol', 'paired')}): {st['state']}; {st['n']} pairs, 95 % half-width "
+    obs = "" if st.get("observable", "diffusion") == "diffusion" else f", {st['observable']}"
+    return (f"group {gi} ({shape_label(g)}: {st['case']} vs exact{obs}, {g.get('protocol', 'paired')}): {st['state']}; "
+            f"{st['n']} pairs, 95 % half-width "
             f"{hw_s} (target {100 * st['target']:.2f} %){proj}; {st['cpu_hours']:.1f} CPU-h spent"
             + (f" of {st['budget_cpu_hours']:g}" if st["budget_cpu_hours"] is not None else ""))

@@ -14,6 +14,9 @@ elastic state (``gas.start = "equipartition"``) and cools from t = 0.  From its 
 * :func:`temperature_ratio`: the HCS ratio T_rot / T_tr averaged over a window after its transient.
 * :func:`fit_scaled_msd`: D0 from the MSD against the scaled time s = ln(1 + t / tau0), whose slope
   is 6 D0 tau0 in the HCS (Brilliantov and Poeschel 2000, :func:`studies.hcs_theory.hcs_msd`).
+* :func:`msd_grid` and :func:`fit_scaled_msd_grid`: the same D0 from the MSD between every pair of
+  a grid of frames (many time origins): in the HCS the displacement over a scaled-time interval
+  depends on its length only, so every origin in the window measures the same slope.
 * :func:`count_variance_ratio` and :func:`homogeneous_until`: the variance of particle counts in
   sub-cells over the binomial variance of a homogeneous gas, per frame, and the time it first rises
   above its sampling noise (the analysed window ends there: clusters have formed).
@@ -32,8 +35,8 @@ from scipy import optimize
 from . import hcs_theory
 
 __all__ = ["rotational_dof", "temperatures", "fit_haff", "haff_amplitude", "temperature_ratio", "scaled_time", "msd_from_start",
-           "fit_scaled_msd", "count_variance_ratio", "homogeneous_until", "haff_theory", "series",
-           "analyse_series", "analyse"]
+           "fit_scaled_msd", "msd_grid", "fit_scaled_msd_grid", "count_variance_ratio", "homogeneous_until", "haff_theory", "series",
+           "analyse_series", "analyse", "effect_observables", "CLUMP_TRANSIENT"]
 
 
 def rotational_dof(run_input):
@@ -237,6 +240,92 @@ def fit_scaled_msd(t, msd, tau0, t_lo=0.0, t_hi=None):
             "intercept": float(a)}
 
 
+# frames of the multi-origin MSD grid a reduced record keeps (G (G - 1) / 2 MSD values)
+GRID_FRAMES = 48
+# the shortest scaled-time lag the multi-origin fit uses: past the velocity's memory, which lasts a
+# few collisions, about 0.1 in s at e = 0.9 (shorter lags move the weakly rough DSMC gas's D ratio,
+# studies.hcs_estimator)
+GRID_MIN_LAG = 0.2
+
+
+def msd_grid(t, disp, n_grid=GRID_FRAMES):
+    """The MSD between every pair of a grid of frames (every grid frame an origin).
+
+    Parameters
+    ----------
+    t : array_like, shape (n_frames,)
+        Times of the frames (s).
+    disp : array_like, shape (n_frames, N, 3)
+        Unwrapped displacements of every particle (m).
+    n_grid : int, optional
+        Grid frames, evenly spaced in frame number from the first to the last.
+
+    Returns
+    -------
+    dict
+        ``grid_t`` (G,) the grid frames' times (s), ``grid_msd`` (G (G - 1) / 2,) the MSD between grid
+        frames i < j averaged over particles (m^2), row by row: (0, 1), (0, 2), ..., (0, G - 1), (1, 2), ...
+    """
+    t, d = np.asarray(t, float), np.asarray(disp, float)
+    if d.ndim != 3 or len(d) != len(t) or d.shape[2] != 3:
+        raise ValueError(f"need disp of shape (n_frames, N, 3) with n_frames = len(t) = {len(t)}, got {d.shape}")
+    idx = np.unique(np.round(np.linspace(0, len(t) - 1, min(int(n_grid), len(t)))).astype(int))
+    g = d[idx]
+    msd = np.concatenate([np.mean(np.sum((g[i + 1:] - g[i]) ** 2, axis=2), axis=1) for i in range(len(idx) - 1)]
+                         or [np.zeros(0)])
+    return {"grid_t": t[idx], "grid_msd": msd}
+
+
+def fit_scaled_msd_grid(grid_t, grid_msd, tau0, t_lo=0.0, t_hi=None, min_lag=GRID_MIN_LAG):
+    """D0, the HCS self-diffusion coefficient at T0, from the multi-origin MSD of :func:`msd_grid`.
+
+    In the HCS a particle's displacement per unit scaled time s = ln(1 + t / tau0) is stationary
+    (dr/ds = v (tau0 + t), and v falls as 1 / (1 + t / tau0)), so the MSD between two times is
+    6 D0 tau0 (s2 - s1) + a, with a the ballistic offset, once s2 - s1 is past the velocity's memory.
+    A straight line in s2 - s1 fitted over every pair of grid frames inside the window whose lag is at
+    least ``min_lag`` gives D0 = slope / (6 tau0): every origin in the window contributes, not the
+    first frame alone (:func:`fit_scaled_msd`).  The fit weighs each pair by 1 / lag^2, as the MSD's
+    scatter grows in proportion to its lag.
+
+    Parameters
+    ----------
+    grid_t, grid_msd : array_like
+        :func:`msd_grid`'s ``grid_t`` (s) and ``grid_msd`` (m^2).
+    tau0 : float
+        Haff's time (s).
+    t_lo, t_hi : float, optional
+        The window (s): both frames of a pair inside it.
+    min_lag : float, optional
+        The shortest lag in s.
+
+    Returns
+    -------
+    dict
+        ``d0`` (m^2/s), ``intercept`` (m^2), ``n_pairs`` (grid pairs fitted).
+
+    Raises
+    ------
+    ValueError
+        If the grid's sizes disagree, or fewer than 4 pairs with two distinct lags are in the window.
+    """
+    gt, gm = np.asarray(grid_t, float), np.asarray(grid_msd, float)
+    g = len(gt)
+    if gm.shape != (g * (g - 1) // 2,):
+        raise ValueError(f"a grid of {g} frames has {g * (g - 1) // 2} pair MSDs, got {gm.shape}")
+    if not tau0 > 0:
+        raise ValueError(f"need tau0 > 0, got {tau0}")
+    i, j = np.triu_indices(g, 1)
+    s = scaled_time(gt, tau0)
+    lag = s[j] - s[i]
+    hi = gt[-1] if t_hi is None else t_hi
+    sel = (gt[i] >= t_lo - 1e-12) & (gt[j] <= hi + 1e-12) & (lag >= min_lag)
+    if sel.sum() < 4 or np.ptp(lag[sel]) <= 0:
+        raise ValueError(f"the window [{t_lo:g}, {hi:g}] s holds {int(sel.sum())} grid pairs {min_lag:g} or more "
+                         f"apart in scaled time; need >= 4")
+    b, a = np.polyfit(lag[sel], gm[sel], 1, w=1.0 / lag[sel])       # polyfit's w multiplies the residuals
+    return {"d0": float(b / (6.0 * tau0)), "intercept": float(a), "n_pairs": int(sel.sum())}
+
+
 def count_variance_ratio(pos, box, cells_per_side):
     """Variance of particle counts in sub-cells over that of a homogeneous (binomial) gas.
 
@@ -352,6 +441,7 @@ def series(frames, run_input, cells_per_side=4):
     -------
     dict
         ``t`` (s), ``e_trans`` and ``e_rot`` (J, whole gas), ``msd`` (:func:`msd_from_start`, m^2),
+        ``grid_t`` and ``grid_msd`` (:func:`msd_grid`),
         ``count_ratio`` (:func:`count_variance_ratio`), and ``cells_per_side``, ``n_particles``,
         ``rot_dof``, ``box_length`` (m), the body's ``builder``, ``mass`` (kg) and ``diameter`` (m,
         spheres; None for clumps), the contact's ``restitution`` and ``friction``.
@@ -361,6 +451,7 @@ def series(frames, run_input, cells_per_side=4):
     pos0 = np.asarray(frames["pos0"] if "pos0" in frames else run_input["initial"]["pos"], float)
     return {"t": np.asarray(frames["t"], float), "e_trans": np.asarray(frames["e_trans"], float),
             "e_rot": np.asarray(frames["e_rot"], float), "msd": msd_from_start(disp),
+            **msd_grid(frames["t"], disp),
             "count_ratio": count_variance_ratio(pos0[None] + disp, float(run_input["box_length"]), cells_per_side),
             "cells_per_side": int(cells_per_side), "n_particles": int(len(pos0)),
             "rot_dof": rotational_dof(run_input), "box_length": float(run_input["box_length"]),
@@ -398,6 +489,47 @@ def analyse_series(s, t_transient=0.0, fit_from=0.0):
            if np.max(e_rot) > 1e-9 * e_trans[0] and t_transient < t_hom else None)
     msd = fit_scaled_msd(t, np.asarray(s["msd"], float), haff["tau0"], min(t_transient, t[-4]), t_hom)
     return {"t_end_homogeneous": t_hom, "haff": haff, "ratio": rot, "msd": msd, "rot_dof": f_rot}
+
+
+# s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: T_rot / T_tr settles
+# to its HCS value within a few mean free times (docs/hcs.md)
+CLUMP_TRANSIENT = 5.0
+
+
+def effect_observables(series, t_transient=CLUMP_TRANSIENT):
+    """The observables whose case / exact ratios are a clump case's effect in the HCS
+    (:mod:`studies.hcs_effects`, and the sequential design of cooling groups, :mod:`studies.design`).
+
+    Parameters
+    ----------
+    series : mapping
+        The run's :func:`series` (its record's ``hcs`` part).
+    t_transient : float, optional
+        Frames before it (s) are left out of every fit.
+
+    Returns
+    -------
+    dict
+        ``cooling_rate`` (1/s) and ``diffusion`` (m^2/s, from the MSD from the first frame) at the start
+        temperature, ``temperature_ratio`` (NaN without rotation), ``diffusion_grid`` (m^2/s, from the
+        multi-origin MSD grid; NaN when the series has none).
+    """
+    a = analyse_series(series, t_transient=t_transient, fit_from=t_transient)
+    t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
+    t_tr, _ = temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
+    t_hom = a["t_end_homogeneous"]
+    # Haff's time from the total kinetic energy, which only the collisions' dissipation changes (T_tr
+    # alone also trades energy with rotation): in the HCS both decay at one rate
+    tau0 = fit_haff(t, e_tr + e_rot, t_transient, t_hom)["tau0"]
+    # zeta and D of a cooling gas scale as sqrt(T_tr): both at the start temperature, which every case
+    # of a paired seed shares (per unit mass), not at the fit's T0, which the transient moves
+    scale = math.sqrt(t_tr[0] / haff_amplitude(t, t_tr, tau0, t_transient, t_hom))
+    msd = fit_scaled_msd(t, np.asarray(series["msd"], float), tau0, min(t_transient, t[-4]), t_hom)
+    grid = (fit_scaled_msd_grid(series["grid_t"], series["grid_msd"], tau0, t_transient, t_hom)["d0"] * scale
+            if "grid_msd" in series else float("nan"))
+    return {"cooling_rate": 2.0 / tau0 * scale,
+            "temperature_ratio": a["ratio"]["ratio"] if a["ratio"] is not None else float("nan"),
+            "diffusion": msd["d0"] * scale, "diffusion_grid": grid}
 
 
 def analyse(frames, run_input, t_transient=0.0, cells_per_side=4):

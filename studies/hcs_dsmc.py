@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from . import hcs_theory
+from . import hcs, hcs_theory
 
 __all__ = ["DENSITY", "initial_state", "simulate"]
 
@@ -64,7 +64,7 @@ def initial_state(n_particles, seed):
 
 
 def simulate(state, rule, kappa, t_end, rec_interval=0.25, spin_ratio=1.0, cooling_stop=None, seed=0,
-             restitution=float("nan"), friction=float("nan")):
+             restitution=float("nan"), friction=float("nan"), grid=False):
     """Run the DSMC gas from ``state`` and return its HCS series.
 
     Parameters
@@ -88,6 +88,9 @@ def simulate(state, rule, kappa, t_end, rec_interval=0.25, spin_ratio=1.0, cooli
         The collisions' random stream (the run's own; the initial state is ``state``'s).
     restitution, friction : float, optional
         Stored in the series as the contact's parameters.
+    grid : bool, optional
+        Also keep every frame's positions and return the multi-origin MSD grid
+        (:func:`studies.hcs.msd_grid`: ``grid_t``, ``grid_msd``), as a reduced YADE record has it.
 
     Returns
     -------
@@ -110,7 +113,7 @@ def simulate(state, rule, kappa, t_end, rec_interval=0.25, spin_ratio=1.0, cooli
     pos = pos0.copy()
     box = float(state["box_length"])
     volume = box ** 3
-    frames = {"t": [], "e_trans": [], "e_rot": [], "msd": [], "e_lost": []}
+    frames = {"t": [], "e_trans": [], "e_rot": [], "msd": [], "e_lost": [], "pos": []}
     lost = [0.0]
 
     def record(t):
@@ -119,6 +122,8 @@ def simulate(state, rule, kappa, t_end, rec_interval=0.25, spin_ratio=1.0, cooli
         frames["e_rot"].append(0.5 * inertia * float(np.sum(w ** 2)))
         frames["msd"].append(float(np.mean(np.sum((pos - pos0) ** 2, axis=1))))
         frames["e_lost"].append(lost[0])
+        if grid:
+            frames["pos"].append(pos.copy())
 
     t, next_frame, n_coll = 0.0, rec_interval, 0
     record(0.0)
@@ -150,8 +155,11 @@ def simulate(state, rule, kappa, t_end, rec_interval=0.25, spin_ratio=1.0, cooli
     # the gas is homogeneous by construction (positions do not decide who collides): its count
     # variance ratio is 1, so no window ends at a fluctuation of the counts
     cells = 4
-    return {"t": frames["t"], "e_trans": frames["e_trans"], "e_rot": frames["e_rot"], "msd": frames["msd"],
-            "count_ratio": [1.0] * len(frames["t"]),
-            "cells_per_side": cells, "n_particles": n, "rot_dof": 3, "box_length": box, "builder": "dsmc",
-            "mass": 1.0, "diameter": 1.0, "restitution": restitution, "friction": friction,
-            "n_collisions": n_coll, "e_dissipated": frames["e_lost"]}
+    out = {"t": frames["t"], "e_trans": frames["e_trans"], "e_rot": frames["e_rot"], "msd": frames["msd"],
+           "count_ratio": [1.0] * len(frames["t"]),
+           "cells_per_side": cells, "n_particles": n, "rot_dof": 3, "box_length": box, "builder": "dsmc",
+           "mass": 1.0, "diameter": 1.0, "restitution": restitution, "friction": friction,
+           "n_collisions": n_coll, "e_dissipated": frames["e_lost"]}
+    if grid:
+        out.update(hcs.msd_grid(frames["t"], np.asarray(frames["pos"]) - pos0))
+    return out

@@ -10,7 +10,10 @@ relative effect ``X_case / X_exact - 1`` of three observables:
   and T0 the T_tr amplitude at that tau0 (:func:`studies.hcs.haff_amplitude`);
 * ``temperature_ratio``: T_rot / T_tr averaged over the window after the transient;
 * ``diffusion``: D0 from the MSD against the scaled time ln(1 + t / tau0), at the start
-  temperature as zeta.
+  temperature as zeta: from the multi-origin MSD grid (:func:`studies.hcs.fit_scaled_msd_grid`)
+  where at least :data:`MIN_GRID_PAIRS` pairs of a group have it in both runs (records reduced
+  before the grid existed lack it), else from the MSD from the first frame
+  (:func:`studies.hcs.fit_scaled_msd`) over every pair.  One row, one estimator.
 
 The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`).
 The bias and coverage of these estimators on synthetic cooling gases with a known answer:
@@ -35,9 +38,9 @@ COLUMNS = ("shape", "n_spheres", "youngs_modulus", "restitution", "friction", "p
            "n_pairs", "relative", "relative_ci_low", "relative_ci_high", "mass_error", "k2_error", "yade_version",
            "rot_algorithm")
 OBSERVABLES = ("cooling_rate", "temperature_ratio", "diffusion")
-# s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: T_rot / T_tr settles
-# to its HCS value within a few mean free times (docs/hcs.md)
-T_TRANSIENT = 5.0
+# pairs with the multi-origin MSD grid in both runs that a group needs before its diffusion row uses it
+MIN_GRID_PAIRS = 3
+T_TRANSIENT = hcs.CLUMP_TRANSIENT
 
 
 def load_records(results_dir):
@@ -63,7 +66,7 @@ def load_records(results_dir):
 
 
 def observables(series, t_transient=T_TRANSIENT):
-    """The three HCS observables of one run.
+    """The HCS observables of one run (:func:`studies.hcs.effect_observables`, past ``t_transient``).
 
     Parameters
     ----------
@@ -75,26 +78,12 @@ def observables(series, t_transient=T_TRANSIENT):
     Returns
     -------
     dict
-        ``cooling_rate`` (1/s) and ``diffusion`` (m^2/s) at the start temperature, ``temperature_ratio``
-        (NaN without rotation).
+        As :func:`studies.hcs.effect_observables`.
     """
-    a = hcs.analyse_series(series, t_transient=t_transient, fit_from=t_transient)
-    t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
-    t_tr, _ = hcs.temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
-    t_hom = a["t_end_homogeneous"]
-    # Haff's time from the total kinetic energy, which only the collisions' dissipation changes (T_tr
-    # alone also trades energy with rotation): in the HCS both decay at one rate
-    tau0 = hcs.fit_haff(t, e_tr + e_rot, t_transient, t_hom)["tau0"]
-    # zeta and D of a cooling gas scale as sqrt(T_tr): both at the start temperature, which every case
-    # of a paired seed shares (per unit mass), not at the fit's T0, which the transient moves
-    scale = math.sqrt(t_tr[0] / hcs.haff_amplitude(t, t_tr, tau0, t_transient, t_hom))
-    msd = hcs.fit_scaled_msd(t, np.asarray(series["msd"], float), tau0, min(t_transient, t[-4]), t_hom)
-    return {"cooling_rate": 2.0 / tau0 * scale,
-            "temperature_ratio": a["ratio"]["ratio"] if a["ratio"] is not None else float("nan"),
-            "diffusion": msd["d0"] * scale}
+    return hcs.effect_observables(series, t_transient)
 
 
-def paired(records, t_transient=T_TRANSIENT):
+def paired(records, t_transient=T_TRANSIENT, left_out=None):
     """Per-seed relative effects of every case against exact.
 
     Parameters
@@ -103,12 +92,15 @@ def paired(records, t_transient=T_TRANSIENT):
         Reduced run records (:func:`load_records`).
     t_transient : float, optional
         As :func:`observables`.
+    left_out : list, optional
+        Gets ``(run name, reason)`` for each run whose window cannot be analysed (it ends, where the
+        gas clusters, before the transient does): that run's pair is left out of every row.
 
     Returns
     -------
     dict
         ``{(pair key, case): {"params": ..., "seeds": [...], "relative": {observable: [...]},
-        "yade_version": set, "rot_algorithm": set}}``.
+        "yade_version": set, "rot_algorithm": set}}``, the observables those of :func:`observables`.
     """
     groups = {}
     for rec in records:
@@ -120,21 +112,34 @@ def paired(records, t_transient=T_TRANSIENT):
         ex = cases.get("exact")
         if ex is None:
             continue
-        x_ex = observables(ex["hcs"], t_transient)
+        x_ex = _observables_or_none(ex, t_transient, left_out)
         for case, rec in sorted(cases.items()):
             if case == "exact":
                 continue
-            x = observables(rec["hcs"], t_transient)
+            x = _observables_or_none(rec, t_transient, left_out)
+            if x is None or x_ex is None:
+                continue
             slot = out.setdefault((key, case), {"params": rec["params"], "seeds": [], "yade_version": set(),
                                                 "rot_algorithm": set(),
-                                                "relative": {o: [] for o in OBSERVABLES}})
+                                                "relative": {o: [] for o in x}})
             slot["seeds"].append(seed)
-            for o in OBSERVABLES:
+            for o in x:
                 slot["relative"][o].append(x[o] / x_ex[o] - 1.0)
             for r in (ex, rec):
                 slot["yade_version"].add(r["yade_version"])
                 slot["rot_algorithm"].add(r["rot_algorithm"])
     return out
+
+
+def _observables_or_none(rec, t_transient, left_out):
+    """:func:`observables` of a record, or None (its name and the reason put in ``left_out``) when
+    its window holds too few frames."""
+    try:
+        return observables(rec["hcs"], t_transient)
+    except ValueError as e:
+        if left_out is not None and all(name != rec.get("name") for name, _ in left_out):
+            left_out.append((rec.get("name", "?"), str(e)))
+        return None
 
 
 def _group_fields(params):
@@ -144,7 +149,7 @@ def _group_fields(params):
             "restitution": float(mat.get("restitution", 1.0)), "friction": float(mat.get("friction", 0.0))}
 
 
-def rows(records, t_transient=T_TRANSIENT):
+def rows(records, t_transient=T_TRANSIENT, left_out=None):
     """Rows of ``results/hcs_effects.csv`` (columns :data:`COLUMNS`).
 
     Parameters
@@ -153,6 +158,8 @@ def rows(records, t_transient=T_TRANSIENT):
         Reduced records of cooling clump runs (:func:`load_records`).
     t_transient : float, optional
         As :func:`observables`.
+    left_out : list, optional
+        As :func:`paired`.
 
     Returns
     -------
@@ -160,11 +167,14 @@ def rows(records, t_transient=T_TRANSIENT):
         One row per (shape, material, protocol, case, observable) with at least one paired seed.
     """
     out = []
-    for (_, case), slot in paired(records, t_transient).items():
+    for (_, case), slot in paired(records, t_transient, left_out).items():
         p = slot["params"]
         shape, mat = p["shape"]["definition"], p["material"]
+        grid = [v for v in slot["relative"]["diffusion_grid"] if math.isfinite(v)]
         for o in OBSERVABLES:
             vals = [v for v in slot["relative"][o] if math.isfinite(v)]
+            if o == "diffusion" and len(grid) >= MIN_GRID_PAIRS:
+                vals = grid
             if not vals:
                 continue
             m, lo, hi, _, n = t_interval(vals)
@@ -304,7 +314,10 @@ def main(argv=None):
     for name in a.specs:
         spec = S.load(name if os.path.exists(name) else os.path.join(S.SPEC_DIR, name + ".toml"))
         records += load_records(os.path.join(S.ROOT, spec["study"]["results"]))
-    out = rows(records, a.t_transient)
+    left_out = []
+    out = rows(records, a.t_transient, left_out)
+    for name, why in left_out:
+        print(f"[hcs-effects] left out {name} and its pair: {why}", file=sys.stderr)
     if not out:
         print(f"[hcs-effects] no paired cooling-run records in {', '.join(a.specs)}", file=sys.stderr)
         return 1

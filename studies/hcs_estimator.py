@@ -10,13 +10,24 @@ one, and does its 95 % Student-t interval over the seeds contain the truth 95 % 
 The truth comes from another route: long runs of many more particles per case, started at the
 two-temperature balance of Maxwellian pairs (close to the HCS), whose cooling rate is the energy
 the collisions take out (counted collision by collision) over the kinetic energy, per
-sqrt(T_tr), and whose T_rot / T_tr is the late window's mean.
+sqrt(T_tr), whose T_rot / T_tr is the late window's mean, and whose self-diffusion is the MSD's
+growth over the late window over 6 times the integral of sqrt(T_tr) dt (D scales as sqrt(T_tr)),
+with no Haff fit and no scaled time.
 
 Two cooling-rate estimators are compared: Haff's fit to T_tr (``t_tr``) and Haff's time from the
 total kinetic energy with T_tr's amplitude at that time (``energy``, the one
 :func:`studies.hcs_effects.observables` uses): in the HCS both decay at one rate, but the total
-energy changes only by dissipation, not by the exchange between translation and rotation.
+energy changes only by dissipation, not by the exchange between translation and rotation.  Two
+self-diffusion estimators: the MSD from the first frame against the scaled time (``origin``) and
+the multi-origin MSD grid a reduced record keeps (``grid``, :func:`studies.hcs.fit_scaled_msd_grid`).
 Writes ``results/estimator/hcs_cooling.csv``.
+
+The same truth also checks the kinetic theory the predictor (:mod:`studies.predict_cooling`) rests
+on: the Maxwellian approximation, in which T_rot / T_tr balances the two temperatures' loss rates
+and zeta and the velocity relaxation nu_v are averages of the collision rule over Maxwellian pairs
+(:func:`studies.hcs_theory.collision_averages`), D0 proportional to 1 / (nu_v - zeta / 2).  The DSMC
+solves the Boltzmann equation without that approximation, so :func:`maxwellian_rows` measure how
+far the approximation moves each relative effect (``results/estimator/hcs_maxwellian.csv``).
 """
 from __future__ import annotations
 
@@ -42,9 +53,11 @@ SETTINGS = {
     "weakly_rough": {"rule": hcs_theory.constant_beta_rule(0.9, -0.6), "e": 0.9, "mu": float("nan")},
 }
 N_PARTICLES, COOLING_STOP, T_TRANSIENT = 1000, 16.0, 5.0
+MAXWELLIAN_COLUMNS = ("setting", "observable", "truth", "truth_se", "maxwellian", "maxwellian_se", "difference",
+                      "difference_se")
 
 
-def truth(setting, n_particles=32000, t_lo=20.0, seeds=(91, 92, 93, 94)):
+def truth(setting, n_particles=32000, t_lo=20.0, seeds=tuple(range(91, 99))):
     """The relative effects of KAPPA_CASE against KAPPA in the HCS, from long runs of many particles.
 
     Parameters
@@ -61,10 +74,10 @@ def truth(setting, n_particles=32000, t_lo=20.0, seeds=(91, 92, 93, 94)):
     Returns
     -------
     dict
-        ``cooling_rate`` and ``temperature_ratio``: case / exact - 1 (the mean over the seeds), and
-        their standard errors ``cooling_rate_se``, ``temperature_ratio_se``.
+        ``cooling_rate``, ``temperature_ratio`` and ``diffusion``: case / exact - 1 (the mean over
+        the seeds), and their standard errors ``cooling_rate_se``, ... .
     """
-    per = {"cooling_rate": [], "temperature_ratio": []}
+    per = {"cooling_rate": [], "temperature_ratio": [], "diffusion": []}
     for seed in seeds:
         one = _truth_one(setting, n_particles, t_lo, seed)
         for k in per:
@@ -90,10 +103,13 @@ def _truth_one(setting, n_particles, t_lo, seed):
         dt = np.diff(t[sel])
         mid = 0.5 * ((e_tr + e_rot)[sel][1:] + (e_tr + e_rot)[sel][:-1])
         sq = 0.5 * (np.sqrt(t_tr[sel][1:]) + np.sqrt(t_tr[sel][:-1]))
-        # zeta / sqrt(T_tr): dissipated power over kinetic energy, per sqrt(T_tr)
+        msd = np.asarray(s["msd"])[sel]
+        # zeta / sqrt(T_tr): dissipated power over kinetic energy, per sqrt(T_tr); D / sqrt(T_tr):
+        # d MSD / dt = 6 D, so the MSD's growth over 6 times the integral of sqrt(T_tr) dt
         out[tag] = {"cooling_rate": float(np.sum(np.diff(lost[sel])) / np.sum(mid * sq * dt)),
-                    "temperature_ratio": float(np.mean(t_rot[sel] / t_tr[sel]))}
-    return {k: out["case"][k] / out["exact"][k] - 1.0 for k in ("cooling_rate", "temperature_ratio")}
+                    "temperature_ratio": float(np.mean(t_rot[sel] / t_tr[sel])),
+                    "diffusion": float((msd[-1] - msd[0]) / (6.0 * np.sum(sq * dt)))}
+    return {k: out["case"][k] / out["exact"][k] - 1.0 for k in ("cooling_rate", "temperature_ratio", "diffusion")}
 
 
 def estimates(series, t_transient=T_TRANSIENT):
@@ -117,7 +133,8 @@ def estimates(series, t_transient=T_TRANSIENT):
     h = hcs.fit_haff(t, t_tr, t_transient)
     return {("cooling_rate", "energy"): x["cooling_rate"],
             ("cooling_rate", "t_tr"): h["zeta0"] * math.sqrt(t_tr[0] / h["t0"]),
-            ("temperature_ratio", "mean"): x["temperature_ratio"]}
+            ("temperature_ratio", "mean"): x["temperature_ratio"],
+            ("diffusion", "origin"): x["diffusion"], ("diffusion", "grid"): x["diffusion_grid"]}
 
 
 def study(setting, n_seeds, first_seed):
@@ -132,7 +149,8 @@ def study(setting, n_seeds, first_seed):
     out = {}
     for seed in range(first_seed, first_seed + n_seeds):
         state = hcs_dsmc.initial_state(N_PARTICLES, seed)
-        runs = [estimates(hcs_dsmc.simulate(state, st["rule"], k, t_end=1e4, cooling_stop=COOLING_STOP, seed=seed))
+        runs = [estimates(hcs_dsmc.simulate(state, st["rule"], k, t_end=1e4, cooling_stop=COOLING_STOP, seed=seed,
+                                                  grid=True))
                 for k in (KAPPA, KAPPA_CASE)]
         for key in runs[0]:
             out.setdefault(key, []).append(runs[1][key] / runs[0][key] - 1.0)
@@ -188,8 +206,48 @@ def coverage_rows(setting, n_studies, n_seeds=4, truth_=None, progress=None):
     return rows
 
 
+def maxwellian(setting, size=500_000, seeds=(1, 2, 3, 4)):
+    """The relative effects of KAPPA_CASE against KAPPA in the Maxwellian approximation.
+
+    Per seed (its own Maxwellian pairs): the HCS ratio r* (:func:`studies.hcs_theory.hcs_ratio_for_rule`),
+    and at r* the collision averages giving zeta = -<dE_tr> / 3 and nu_v = -<(v1' - v1) . v1> / 3 in
+    units of the collision frequency (T_tr = m = 1), which the cases share.
+
+    Returns
+    -------
+    dict
+        ``cooling_rate``, ``temperature_ratio``, ``diffusion``: case / exact - 1 (the mean over the
+        seeds), and their standard errors (``..._se``, over the seeds).
+    """
+    st = SETTINGS[setting]
+    per = {"cooling_rate": [], "temperature_ratio": [], "diffusion": []}
+    for seed in seeds:
+        x = {}
+        for tag, kappa in (("exact", KAPPA), ("case", KAPPA_CASE)):
+            r, _ = hcs_theory.hcs_ratio_for_rule(st["rule"], kappa, size=size, seed=seed)
+            avg = hcs_theory.collision_averages(st["rule"], 1.0, r, kappa, size=size,
+                                                rng=np.random.default_rng([seed, 7]))
+            zeta, nu_v = -avg.d_e_tr / 3.0, -avg.d_v_dot_v / 3.0
+            x[tag] = {"temperature_ratio": r, "cooling_rate": zeta, "diffusion": 1.0 / (nu_v - zeta / 2.0)}
+        for k in per:
+            per[k].append(x["case"][k] / x["exact"][k] - 1.0)
+    out = {k: float(np.mean(v)) for k, v in per.items()}
+    out.update({k + "_se": float(np.std(v, ddof=1) / math.sqrt(len(v))) for k, v in per.items()})
+    return out
+
+
+def maxwellian_rows(setting, truth_, maxwellian_):
+    """Rows of ``hcs_maxwellian.csv`` for one setting: each observable's relative effect in the DSMC
+    (:func:`truth`) and in the Maxwellian approximation (:func:`maxwellian`), and their difference."""
+    return [{"setting": setting, "observable": k, "truth": truth_[k], "truth_se": truth_[k + "_se"],
+             "maxwellian": maxwellian_[k], "maxwellian_se": maxwellian_[k + "_se"],
+             "difference": maxwellian_[k] - truth_[k],
+             "difference_se": math.hypot(truth_[k + "_se"], maxwellian_[k + "_se"])}
+            for k in ("cooling_rate", "temperature_ratio", "diffusion")]
+
+
 def main(argv=None):
-    """``python -m studies hcs-estimator``: results/estimator/hcs_cooling.csv."""
+    """``python -m studies hcs-estimator``: results/estimator/hcs_cooling.csv and hcs_maxwellian.csv."""
     import argparse
 
     from . import spec as S
@@ -200,17 +258,30 @@ def main(argv=None):
     ap.add_argument("--studies", type=int, default=200, help="synthetic studies per setting (default 200)")
     ap.add_argument("--seeds", type=int, default=4, help="seeds per study (default 4)")
     ap.add_argument("--out", default=os.path.join(S.ROOT, "results", "estimator", "hcs_cooling.csv"))
+    ap.add_argument("--theory-only", action="store_true",
+                    help="only the truth against the Maxwellian approximation (hcs_maxwellian.csv beside --out, "
+                         "about a minute a setting)")
     a = ap.parse_args(argv)
-    rows = []
+    rows, theory = [], []
     for name in SETTINGS:
         t0 = time.time()
         tr = truth(name)
-        print(f"[hcs-estimator] {name}: truth cooling_rate {100 * tr['cooling_rate']:+.2f} ± "
-              f"{100 * tr['cooling_rate_se']:.2f} %, T_rot/T_tr {100 * tr['temperature_ratio']:+.2f} ± "
-              f"{100 * tr['temperature_ratio_se']:.2f} % ({time.time() - t0:.0f} s)", file=sys.stderr)
-        rows += coverage_rows(name, a.studies, a.seeds, tr, progress=lambda k: (
-            print(f"[hcs-estimator] {name}: {k}/{a.studies} studies", file=sys.stderr) if k % 25 == 0 else None))
+        print(f"[hcs-estimator] {name}: truth " + ", ".join(
+            f"{k} {100 * tr[k]:+.2f} ± {100 * tr[k + '_se']:.2f} %" for k in ("cooling_rate", "temperature_ratio", "diffusion"))
+            + f" ({time.time() - t0:.0f} s)", file=sys.stderr)
+        theory += maxwellian_rows(name, tr, maxwellian(name))
+        if not a.theory_only:
+            rows += coverage_rows(name, a.studies, a.seeds, tr, progress=lambda k: (
+                print(f"[hcs-estimator] {name}: {k}/{a.studies} studies", file=sys.stderr) if k % 25 == 0 else None))
     os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
+    theory_out = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_maxwellian.csv")
+    hcs_effects.write_csv(theory_out, MAXWELLIAN_COLUMNS, theory)
+    for r in theory:
+        print(f"[hcs-estimator] {r['setting']} {r['observable']}: DSMC {100 * r['truth']:+.2f} ± {100 * r['truth_se']:.2f} %, "
+              f"Maxwellian approximation {100 * r['maxwellian']:+.2f} ± {100 * r['maxwellian_se']:.2f} %")
+    print(f"[hcs-estimator] wrote {theory_out}")
+    if a.theory_only:
+        return 0
     hcs_effects.write_csv(a.out, COLUMNS, rows)
     for r in rows:
         print(f"[hcs-estimator] {r['setting']} {r['observable']} ({r['estimator']}): truth {100 * r['truth']:+.2f} %, "

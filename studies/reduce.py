@@ -98,14 +98,46 @@ def reduce_run(frames, run_input, cuts, max_lag_s, energy_tol, momentum_tol):
                             float(np.sum(np.linalg.norm(v0, axis=1)))),
            "energy": energy_series(fr), "windows": []}
     if "e_dissipated" in fr:       # a cooling run: the HCS series its analysis needs (studies.hcs)
-        from .hcs import series
-        hcs = series(frames, run_input)
-        out["hcs"] = {k: ([float(f"{x:.10g}") for x in v] if isinstance(v, np.ndarray) else v) for k, v in hcs.items()}
+        out["hcs"] = hcs_part(frames, run_input)
     t = fr["t"]
     for c in sorted(set(float(x) for x in cuts)):
         if np.sum(_even_frames(t) & (t >= c - 1e-9)) >= 4:        # shorter windows are not stored
             out["windows"].append(window(fr, c, max_lag_s))
     return out
+
+
+def hcs_part(frames, run_input):
+    """The ``hcs`` part of a cooling run's record: :func:`studies.hcs.series`, arrays as lists of
+    10-digit floats."""
+    from .hcs import series
+    hcs = series(frames, run_input)
+    return {k: ([float(f"{x:.10g}") for x in v] if isinstance(v, np.ndarray) else v) for k, v in hcs.items()}
+
+
+def refresh_hcs(rec, frames, run_input):
+    """A copy of a cooling run's record whose ``hcs`` part is the current reduction's, from the run's
+    kept raw frames (``--keep-raw``): a later series (the multi-origin MSD grid) for runs reduced
+    before it existed.  Everything else is kept as it was.
+
+    Parameters
+    ----------
+    rec : dict
+        The run's reduced record (with an ``hcs`` part).
+    frames : mapping
+        The run's raw frames (its npz).
+    run_input : dict
+        The run file.
+
+    Returns
+    -------
+    dict
+    """
+    if "hcs" not in rec:
+        raise ValueError(f"{rec.get('name', 'the record')} is not a cooling run (no hcs part)")
+    t_rec, t_raw = np.asarray(rec["hcs"]["t"], float), np.asarray(frames["t"], float)
+    if t_rec.shape != t_raw.shape or not np.allclose(t_rec, t_raw, rtol=1e-9, atol=0.0):
+        raise ValueError(f"{rec.get('name', 'the record')}: the raw frames' times are not the record's")
+    return {**rec, "hcs": hcs_part(frames, run_input)}
 
 
 def _read(path):

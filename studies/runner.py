@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import glob
 import json
 import os
 import re
@@ -415,6 +416,39 @@ def _keep_raw(attempt, rin, run, results_dir):
     os.replace(attempt.prefix + ".npz", os.path.join(raw, run["name"] + ".npz"))
     with open(os.path.join(raw, run["name"] + ".run.json"), "w") as f:
         json.dump(rin, f)
+
+
+def rereduce(results_dir):
+    """Refresh the ``hcs`` part of every cooling record whose raw frames were kept
+    (:func:`studies.reduce.refresh_hcs`); each record is rewritten atomically.
+
+    Parameters
+    ----------
+    results_dir : str
+        A study's results folder (``runs/*.json``, ``raw/NAME.npz`` and ``raw/NAME.run.json``).
+
+    Returns
+    -------
+    (int, int)
+        Records refreshed, and cooling records without raw frames (left as they are).
+    """
+    done = skipped = 0
+    for path in sorted(glob.glob(os.path.join(results_dir, "runs", "*.json"))):
+        with open(path) as f:
+            rec = json.load(f)
+        if "hcs" not in rec:
+            continue
+        raw = os.path.join(results_dir, "raw", rec["name"])
+        if not (os.path.exists(raw + ".npz") and os.path.exists(raw + ".run.json")):
+            skipped += 1
+            continue
+        with np.load(raw + ".npz") as z:
+            frames = {k: z[k] for k in z.files}
+        with open(raw + ".run.json") as f:
+            rin = json.load(f)
+        write_atomic(path, json.dumps(red.refresh_hcs(rec, frames, rin), separators=(",", ":")))
+        done += 1
+    return done, skipped
 
 
 def _remove(path):

@@ -84,6 +84,9 @@ GROUP_KEYS = {"shape": (str, True, None, None), "cases": (list, True, None, None
               "tangential_restitution": (_NUM, False, None, "restitution"),
               "friction": (_NUM, False, None, "nonneg"), "cooling_stop": (_NUM, False, None, "cooling_stop"),
               "target": (dict, False, None, None), "max_seeds": (int, False, None, "pos")}
+# what a sequential target's half-width is of: D of an elastic gas (Green-Kubo), or one of the
+# cooling-gas observables of studies.hcs.effect_observables (a dissipative group's runs)
+TARGET_OBSERVABLES = ("diffusion", "cooling_rate", "temperature_ratio")
 # [run] legacy_dt = {below_seed, dt_factor}: seeds below ``below_seed`` keep the time step they were run
 # with before ``run.dt_factor`` was raised (see :func:`resolve_run`)
 LEGACY_DT_KEYS = {"below_seed": (int, True, None, "pos"), "dt_factor": (_NUM, True, None, "pos")}
@@ -178,9 +181,12 @@ def _validate_group(where, g, spec):
     if gd["target"] is not None:
         t = check_table(f"{where}.target", gd["target"],
                         {"case": (str, True, None, None), "halfwidth": (_NUM, True, None, "pos"),
-                         "batch": (int, False, 2, "pos")})
+                         "batch": (int, False, 2, "pos"), "observable": (str, False, "diffusion", None)})
         if t["case"] not in gd["cases"] or "exact" not in gd["cases"]:
             raise SpecError(f"{where}.target.case: {t['case']!r} and 'exact' must both be in {where}.cases")
+        if t["observable"] not in TARGET_OBSERVABLES:
+            raise SpecError(f"{where}.target.observable: {t['observable']!r} is not one of "
+                            f"{', '.join(TARGET_OBSERVABLES)}")
         gd["target"] = t
         if gd["max_seeds"] is None:
             raise SpecError(f"{where}.max_seeds: missing (needed by {where}.target)")
@@ -188,6 +194,10 @@ def _validate_group(where, g, spec):
     sph = dict(spec["spheres"], density=spec["material"]["density"])
     mat = dict(spec["material"], **{k: gd[k] for k in OPTIONAL_KEYS["material"] if gd[k] is not None})
     routes = {c: gas_model.resolve_case(props, c, sph, mat.get("friction") or 0.0)["route"] for c in gd["cases"]}
+    dissipative = (mat.get("restitution") is not None and mat["restitution"] < 1) or (mat.get("friction") or 0.0) > 0
+    if gd["target"] is not None and (gd["target"]["observable"] != "diffusion") and not dissipative:
+        raise SpecError(f"{where}.target.observable: {gd['target']['observable']!r} needs a cooling gas "
+                        f"(restitution < 1 or friction > 0); an elastic group's target is of D ('diffusion')")
     if spec["study"]["yade"] == "2023.02a" and "aspherical" in routes.values():
         why = ("is not a linear clump" if not props["linear"] else
                f"has friction (material.friction = {mat['friction']:g}: a tangential force turns a linear clump about its axis)")

@@ -200,3 +200,103 @@ def test_a_passing_fluctuation_of_the_counts_is_not_clustering():
     assert hcs.homogeneous_until(t, ratio, m) == t[-1]
     ratio[t > 8.0] = 1.8
     assert hcs.homogeneous_until(t, ratio, m) == pytest.approx(t[t > 8.0][0])
+
+
+def test_msd_grid_holds_the_msd_between_every_pair_of_grid_frames():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 9.0, 10)
+    disp = np.cumsum(rng.normal(size=(10, 5, 3)), axis=0)
+    g = hcs.msd_grid(t, disp, n_grid=4)
+    idx = [0, 3, 6, 9]
+    assert g["grid_t"].tolist() == t[idx].tolist()
+    want = [np.mean(np.sum((disp[b] - disp[a]) ** 2, axis=1)) for k, a in enumerate(idx) for b in idx[k + 1:]]
+    assert g["grid_msd"] == pytest.approx(want, rel=1e-12)
+    assert len(hcs.msd_grid(t, disp)["grid_t"]) == 10          # fewer frames than the grid: every frame
+    with pytest.raises(ValueError, match="shape"):
+        hcs.msd_grid(t[:-1], disp)
+
+
+def _scaled_time_walk(rng, d0, tau0, n=1000, frames=241, t_end=30.0):
+    """Walkers whose displacement is Brownian in s = ln(1 + t / tau0) with MSD = 6 D0 tau0 s."""
+    t = np.linspace(0.0, t_end, frames)
+    ds = np.diff(hcs.scaled_time(t, tau0))
+    steps = rng.normal(size=(frames - 1, n, 3)) * np.sqrt(2 * d0 * tau0 * ds)[:, None, None]
+    return t, np.concatenate([np.zeros((1, n, 3)), np.cumsum(steps, axis=0)])
+
+
+def test_the_multi_origin_fit_recovers_d0_and_scatters_less_than_the_first_frame_fit():
+    d0, tau0 = 0.02, 6.0
+    first, multi = [], []
+    for seed in range(12):
+        t, disp = _scaled_time_walk(np.random.default_rng(seed), d0, tau0)
+        g = hcs.msd_grid(t, disp)
+        multi.append(hcs.fit_scaled_msd_grid(g["grid_t"], g["grid_msd"], tau0, t_lo=3.0)["d0"])
+        first.append(hcs.fit_scaled_msd(t, hcs.msd_from_start(disp), tau0, t_lo=3.0)["d0"])
+    # 1000 walkers: one MSD scatters sqrt(2 / 3000) = 2.6 %; the mean of 12 seeds within 4 of its errors
+    assert np.mean(multi) == pytest.approx(d0, abs=4 * np.std(multi, ddof=1) / math.sqrt(12))
+    assert np.mean(first) == pytest.approx(d0, abs=4 * np.std(first, ddof=1) / math.sqrt(12))
+    assert np.std(multi, ddof=1) < 0.8 * np.std(first, ddof=1)
+
+
+def test_the_multi_origin_fit_refuses_a_window_without_pairs():
+    t, disp = _scaled_time_walk(np.random.default_rng(1), 0.02, 6.0, n=10)
+    g = hcs.msd_grid(t, disp)
+    with pytest.raises(ValueError, match="grid pairs"):
+        hcs.fit_scaled_msd_grid(g["grid_t"], g["grid_msd"], 6.0, t_lo=29.0)
+    with pytest.raises(ValueError, match="pair MSDs"):
+        hcs.fit_scaled_msd_grid(g["grid_t"], g["grid_msd"][:-1], 6.0)
+    with pytest.raises(ValueError, match="tau0"):
+        hcs.fit_scaled_msd_grid(g["grid_t"], g["grid_msd"], 0.0)
+
+
+def test_rereduce_gives_records_without_the_grid_what_the_reduction_stores_now(tmp_path):
+    """A record reduced before the multi-origin grid existed gets it from the run's kept raw frames,
+    equal to a fresh reduction's, and nothing else in it changes; a record without raw frames stays."""
+    import json
+    from studies import reduce as red, runner
+    rng = np.random.default_rng(2)
+    n, nf = 20, 30
+    t, disp = _scaled_time_walk(rng, 0.02, 6.0, n=n, frames=nf)
+    fr = {"t": t, "disp": disp, "vel": rng.normal(size=(nf, n, 3)), "e_trans": np.linspace(30.0, 10.0, nf),
+          "e_rot": np.linspace(30.0, 9.0, nf), "e_elastic": np.zeros(nf), "momentum": np.zeros((nf, 3)),
+          "e_dissipated": np.linspace(0.0, 41.0, nf)}
+    rin = {"initial": {"pos": rng.uniform(0, 4.0, (n, 3)).tolist(), "vel": fr["vel"][0].tolist()}, "box_length": 4.0,
+           "body": {"builder": "clumpprops", "route": "aspherical", "mass": 1.0}, "material": {"restitution": 0.9}}
+    fresh = red.reduce_run(fr, rin, [0.0], 1.0, 1.0, 1.0)
+    assert {"grid_t", "grid_msd"} <= set(fresh["hcs"])
+    old = json.loads(json.dumps(fresh))
+    for k in ("grid_t", "grid_msd"):
+        del old["hcs"][k]
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "raw").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "runs" / f"{name}.json").write_text(json.dumps({**old, "name": name, "seed": 1}))
+    np.savez(tmp_path / "raw" / "a.npz", **fr)
+    (tmp_path / "raw" / "a.run.json").write_text(json.dumps(rin))
+    assert runner.rereduce(str(tmp_path)) == (1, 1)
+    a = json.loads((tmp_path / "runs" / "a.json").read_text())
+    assert a == {**json.loads(json.dumps(fresh)), "name": "a", "seed": 1}
+    assert "grid_msd" not in json.loads((tmp_path / "runs" / "b.json").read_text())["hcs"]
+    with pytest.raises(ValueError, match="times"):
+        red.refresh_hcs(old, {**fr, "t": fr["t"] * 2}, rin)
+
+
+def test_a_sequential_target_names_a_cooling_observable_only_for_a_cooling_gas():
+    raw = _raw()
+    g = raw["groups"][0]
+    g.update(cases=["spheres", "exact"], max_seeds=12,
+             target={"case": "spheres", "observable": "temperature_ratio", "halfwidth": 0.01})
+    spec = S.validate(copy.deepcopy(raw))
+    assert spec["groups"][0]["target"]["observable"] == "temperature_ratio"
+    bad = copy.deepcopy(raw)
+    bad["groups"][0]["target"]["observable"] = "msd"
+    with pytest.raises(S.SpecError, match="target.observable: 'msd' is not one of"):
+        S.validate(bad)
+    elastic = copy.deepcopy(raw)
+    elastic["material"].pop("restitution")
+    with pytest.raises(S.SpecError, match="needs a cooling gas"):
+        S.validate(elastic)
+    elastic["groups"][0]["target"]["observable"] = "diffusion"
+    assert S.validate(elastic)["groups"][0]["target"]["observable"] == "diffusion"
+    del raw["groups"][0]["target"]["observable"]
+    assert S.validate(raw)["groups"][0]["target"]["observable"] == "diffusion"      # the default: D

@@ -53,6 +53,18 @@ def test_the_mean_square_displacement_gives_the_boltzmann_self_diffusion():
     assert d == pytest.approx(3 / (8 * D.DENSITY) / math.sqrt(math.pi) * 1.016 * (1 - p / 3), rel=0.03)
 
 
+def test_the_grid_holds_the_msd_between_grid_frames():
+    """grid=True: the grid's pairs with the first frame are the MSD from the start at those frames."""
+    s = D.simulate(D.initial_state(400, 4), T.walton_rule(0.9, 0.5, 0.4), 0.4, t_end=1e3, cooling_stop=4, seed=4,
+                   grid=True)
+    t, gt = np.asarray(s["t"]), np.asarray(s["grid_t"])
+    g = len(gt)
+    assert g == min(len(t), hcs.GRID_FRAMES) and len(s["grid_msd"]) == g * (g - 1) // 2
+    idx = np.searchsorted(t, gt)
+    assert np.asarray(s["grid_msd"])[:g - 1] == pytest.approx(np.asarray(s["msd"])[idx[1:]], rel=1e-12)
+    assert "grid_msd" not in D.simulate(D.initial_state(400, 4), T.walton_rule(0.9, 0.5, 0.4), 0.4, t_end=1.0)
+
+
 def test_bad_input_is_refused():
     with pytest.raises(ValueError, match="even number"):
         D.simulate(D.initial_state(3, 1), T.constant_beta_rule(0.9, 0.0), 0.4, t_end=1.0)
@@ -79,9 +91,15 @@ def test_the_energy_estimator_recovers_an_inertia_effect_on_dsmc_runs():
 
 
 def test_observables_read_dsmc_series():
-    s = D.simulate(D.initial_state(1000, 5), T.walton_rule(0.9, 0.5, 0.4), 0.4, t_end=1e3, cooling_stop=16, seed=5)
+    s = D.simulate(D.initial_state(1000, 5), T.walton_rule(0.9, 0.5, 0.4), 0.4, t_end=1e3, cooling_stop=16, seed=5,
+                   grid=True)
     x = hcs_effects.observables(s)
+    assert set(x) == {"cooling_rate", "temperature_ratio", "diffusion", "diffusion_grid"}
     assert all(math.isfinite(v) and v > 0 for v in x.values())
+    # the two MSD routes read one D0 (1000 spheres: each scatters a few per cent)
+    assert x["diffusion_grid"] == pytest.approx(x["diffusion"], rel=0.1)
+    s.pop("grid_msd")
+    assert math.isnan(hcs_effects.observables(s)["diffusion_grid"])
 
 
 def test_the_drift_diagnostic_sees_a_ratio_still_relaxing_and_not_a_settled_one():
@@ -98,3 +116,23 @@ def test_the_drift_diagnostic_sees_a_ratio_still_relaxing_and_not_a_settled_one(
     assert hi < 0                                          # still falling: the interval excludes 0
     m, lo, hi, _, _ = E.t_interval(drift["balance"])
     assert abs(m) < 0.05 and hi - lo < 0.2
+
+
+def test_the_maxwellian_effects_of_a_constant_beta_rule_are_the_closed_forms():
+    """The Monte Carlo Maxwellian approximation of hcs_estimator.maxwellian against Huthmann and
+    Zippelius' closed forms for constant tangential restitution (hcs_theory)."""
+    e, beta = 0.9, -0.6
+    assert E.SETTINGS["weakly_rough"]["rule"](np.array([1.0]), np.array([1.0]), 0.4)[1] == pytest.approx(beta)
+    m = E.maxwellian("weakly_rough", size=200_000, seeds=(1, 2))
+
+    def closed(kappa):
+        zeta = T.hcs_cooling_rate(e, beta, kappa, 1.0)
+        return {"temperature_ratio": T.hcs_temperature_ratio(e, beta, kappa), "cooling_rate": zeta,
+                "diffusion": 1.0 / (T.velocity_relaxation_rate(e, beta, kappa, 1.0) - zeta / 2)}
+
+    a, b = closed(E.KAPPA), closed(E.KAPPA_CASE)
+    for k in a:
+        assert m[k] == pytest.approx(b[k] / a[k] - 1, abs=5 * m[k + "_se"] + 2e-4), k
+    rows = E.maxwellian_rows("weakly_rough", {k: 0.0 for k in m}, m)
+    assert [r["observable"] for r in rows] == ["cooling_rate", "temperature_ratio", "diffusion"]
+    assert all(r["difference"] == m[r["observable"]] for r in rows)

@@ -100,3 +100,72 @@ def test_the_relaxation_rows_flag_a_ratio_still_moving_in_the_window():
         for r in rows:
             assert (r["drift_ci_high"] < 0) == still, r
             assert r["window_start"] == 5.0 and r["window_end"] == 40.0
+
+
+def _with_grid(rec, d0_grid_factor):
+    """The record with a multi-origin MSD grid whose D0 is ``d0_grid_factor`` times its first-frame MSD's."""
+    s = dict(rec["hcs"])
+    t = np.asarray(s["t"])
+    tau0 = hcs.fit_haff(t, np.asarray(s["e_trans"]) + np.asarray(s["e_rot"]), 5.0)["tau0"]
+    d0 = hcs.fit_scaled_msd(t, np.asarray(s["msd"]), tau0, 5.0)["d0"]
+    gt = t[::20]
+    i, j = np.triu_indices(len(gt), 1)
+    sc = hcs.scaled_time(gt, tau0)
+    s.update(grid_t=gt.tolist(), grid_msd=(6 * d0 * d0_grid_factor * tau0 * (sc[j] - sc[i]) - 0.01).tolist())
+    return dict(rec, hcs=s)
+
+
+def test_the_diffusion_row_reads_the_multi_origin_grid_once_three_pairs_have_it():
+    """Grids that read the uncorrected case's D0 4 % higher than its first-frame MSD does: with three
+    pairs holding them the row is theirs (3 pairs, +4 % on top of the 2 % effect); with two it is the
+    first-frame MSD's over all four pairs."""
+    effect = {"cooling_rate": 0.0, "temperature_ratio": 0.0, "diffusion": 0.02}
+    recs = _records(effect)
+
+    def rows_with_grid(seeds):
+        out = [_with_grid(r, 1.04 if r["case"] == "uncorrected" else 1.0) if r["seed"] in seeds else r for r in recs]
+        return {r["observable"]: r for r in H.rows(out)}
+
+    three, two = rows_with_grid((1, 2, 3)), rows_with_grid((1, 2))
+    assert three["diffusion"]["n_pairs"] == 3 and H.MIN_GRID_PAIRS == 3
+    assert three["diffusion"]["relative"] == pytest.approx(1.02 * 1.04 - 1, abs=2e-3)
+    assert two["diffusion"]["n_pairs"] == 4 and two["diffusion"]["relative"] == pytest.approx(0.02, abs=2e-3)
+    assert three["cooling_rate"]["n_pairs"] == 4
+
+
+def test_a_run_whose_window_ends_before_its_transient_is_named_and_its_pair_left_out(capsys):
+    recs = _records({o: 0.0 for o in H.OBSERVABLES})
+    short = []
+    for r in recs:
+        if r["case"] == "uncorrected" and r["seed"] == 2:
+            s = dict(r["hcs"])
+            s["count_ratio"] = [1.0] * 60 + [9.0] * (len(s["t"]) - 60)      # clustered from t = 3 s on
+            r = dict(r, hcs=s, name="rough-uncorrected-paired-s2")
+        short.append(r)
+    left_out = []
+    rows = H.rows(short, left_out=left_out)
+    assert all(r["n_pairs"] == 3 for r in rows)
+    assert [name for name, _ in left_out] == ["rough-uncorrected-paired-s2"] and "frames" in left_out[0][1]
+    with pytest.raises(ValueError, match="frames"):
+        H.observables(next(r for r in short if r.get("name") == "rough-uncorrected-paired-s2")["hcs"])
+
+
+def test_the_sequential_design_reads_a_cooling_groups_target_observable():
+    """design.paired_relative on cooling records: each seed's effect on the target's observable
+    (the synthetic runs' known -5 % on T_rot / T_tr, +3 % on the cooling rate); a pair whose run
+    fails its checks or cannot be analysed is left out."""
+    from studies import design
+    effect = {"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02}
+    recs = _records(effect)
+    by_key, runs = {}, []
+    for r in recs:
+        key = f"{r['case']}-{r['seed']}"
+        by_key[key] = dict(r, checks={"ok": not (r["case"] == "exact" and r["seed"] == 3)})
+        runs.append({"key": key, "case": r["case"], "seed": r["seed"]})
+    for obs in ("temperature_ratio", "cooling_rate", "diffusion"):
+        got = design.paired_relative(by_key, runs, "uncorrected", 0.0, obs)
+        assert [s for s, _ in got] == [1, 2, 4]
+        assert [v for _, v in got] == pytest.approx([effect[obs]] * 3, abs=2e-3)
+    clustered = dict(by_key["uncorrected-2"]["hcs"], count_ratio=[9.0] * 801)
+    by_key["uncorrected-2"] = dict(by_key["uncorrected-2"], hcs=clustered)
+    assert [s for s, _ in design.paired_relative(by_key, runs, "uncorrected", 0.0, "cooling_rate")] == [1, 4]

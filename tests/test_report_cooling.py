@@ -66,4 +66,19 @@ def test_the_cooling_checks_name_groups_still_relaxing_and_estimators_that_miss(
     text = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], estimator=e, moving=moving,
                   n_relax=n)
     assert "In 1 of 2 groups the ratio still moves (dimer mu = 0.5 exact: -8.00 % [-10.0, -6.0] %)" in text
-    assert "| weakly_rough | temperature_ratio | mean | -10.00 % | +17.00 ± 0.20 % |" in text and "(not 95 %)" in text
+    assert "| weakly_rough | temperature_ratio | mean | -10.00 ± 0.10 % | +17.00 ± 0.20 % |" in text and "(not 95 %)" in text
+
+
+def test_the_maxwellian_check_marks_differences_beyond_twice_their_error(tmp_path):
+    (tmp_path / "estimator").mkdir()
+    rows = [{"setting": "rough", "observable": o, "truth": t, "truth_se": 0.001, "maxwellian": m, "maxwellian_se": 0.0002,
+             "difference": m - t, "difference_se": 0.00102}
+            for o, t, m in (("cooling_rate", -0.0174, -0.0180), ("temperature_ratio", -0.1053, -0.1017))]
+    _write(tmp_path / "estimator" / "hcs_maxwellian.csv", rows)
+    mx = tables.cooling_maxwellian(str(tmp_path))
+    assert [r["agrees"] for r in mx] == [True, False]
+    text = render("cooling.md.j2", theory=[], clumps=[], record=None, predicted=[], maxwellian=mx)
+    assert "| rough | temperature_ratio | -10.53 ± 0.10 % | -10.17 ± 0.02 % | +0.36 ± 0.10 % (more than twice its error) |" in text
+    assert "| rough | cooling_rate | -1.74 ± 0.10 % | -1.80 ± 0.02 % | -0.06 ± 0.10 % |" in text
+    assert "no relative effect by more than 0.36 percentage points" in text
+    assert tables.cooling_maxwellian(str(tmp_path / "none")) == []

@@ -315,3 +315,11 @@ def cooling_checks(results):
     relax = _csv_rows(os.path.join(results, "hcs_relaxation.csv"))
     moving = [r for r in relax if r["drift_ci_high"] < 0 or r["drift_ci_low"] > 0]
     return est, moving, len(relax)
+
+
+def cooling_maxwellian(results):
+    """Rows of ``results/estimator/hcs_maxwellian.csv``: each relative effect of the synthetic
+    gases in the DSMC and in the Maxwellian approximation the predictor uses, with ``agrees``
+    (the difference within twice its standard error)."""
+    return [dict(r, agrees=abs(r["difference"]) <= 2 * r["difference_se"])
+            for r in _csv_rows(os.path.join(results, "estimator", "hcs_maxwellian.csv"))]
