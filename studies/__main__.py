@@ -9,7 +9,7 @@
     plot     figures and the study's report page <results>/README.md from the tables
     prepare  write run files and a yade-batch table for running by hand (yade-batch)
     plan     validate the spec, list the runs still to do and estimate their CPU-hours (runs nothing)
-    rereduce give the cooling runs whose raw frames were kept (--keep-raw, <results>/raw) the
+    rereduce  the cooling runs whose raw frames were kept (--keep-raw, <results>/raw): the
              current reduction's HCS series in their records
 
 SPEC is a study spec (``studies/specs/*.toml``; a bare name like ``quick`` means

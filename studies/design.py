@@ -145,16 +145,14 @@ def _sequential_runs(spec, gi, seeds):
 def run_observable(rec, observable, t_eq):
     """The value of a sequential target's observable in one run: D (Green-Kubo, :func:`run_d`) of an
     elastic run; of a cooling run (a record with an ``hcs`` part), ``observable`` from
-    :func:`studies.hcs.effect_observables`, D0 from the multi-origin MSD grid where the record has
-    it.  NaN where the run's window cannot be analysed."""
+    :func:`studies.hcs.effect_observables` (D0 from the MSD from the first frame, which every
+    cooling record has).  NaN where the run's window cannot be analysed."""
     if "hcs" not in rec:
         return run_d(rec, t_eq, stderr=False)["D"]
     try:
         x = hcs.effect_observables(rec["hcs"])
     except ValueError:
         return float("nan")
-    if observable == "diffusion" and np.isfinite(x["diffusion_grid"]):
-        return x["diffusion_grid"]
     return x[observable]
 
 

@@ -11,9 +11,10 @@ relative effect ``X_case / X_exact - 1`` of three observables:
 * ``temperature_ratio``: T_rot / T_tr averaged over the window after the transient;
 * ``diffusion``: D0 from the MSD against the scaled time ln(1 + t / tau0), at the start
   temperature as zeta: from the multi-origin MSD grid (:func:`studies.hcs.fit_scaled_msd_grid`)
-  where at least :data:`MIN_GRID_PAIRS` pairs of a group have it in both runs (records reduced
-  before the grid existed lack it), else from the MSD from the first frame
-  (:func:`studies.hcs.fit_scaled_msd`) over every pair.  One row, one estimator.
+  where every pair of a group (at least :data:`MIN_GRID_PAIRS`) has it in both runs, else from
+  the MSD from the first frame (:func:`studies.hcs.fit_scaled_msd`).  Records reduced before the
+  grid existed lack it, and a group's pairs are not split between the two: one row, one
+  estimator, every pair.
 
 The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`).
 The bias and coverage of these estimators on synthetic cooling gases with a known answer:
@@ -38,7 +39,7 @@ COLUMNS = ("shape", "n_spheres", "youngs_modulus", "restitution", "friction", "p
            "n_pairs", "relative", "relative_ci_low", "relative_ci_high", "mass_error", "k2_error", "yade_version",
            "rot_algorithm")
 OBSERVABLES = ("cooling_rate", "temperature_ratio", "diffusion")
-# pairs with the multi-origin MSD grid in both runs that a group needs before its diffusion row uses it
+# pairs a group needs, every one with the multi-origin MSD grid in both runs, before its diffusion row uses it
 MIN_GRID_PAIRS = 3
 T_TRANSIENT = hcs.CLUMP_TRANSIENT
 
@@ -173,7 +174,7 @@ def rows(records, t_transient=T_TRANSIENT, left_out=None):
         grid = [v for v in slot["relative"]["diffusion_grid"] if math.isfinite(v)]
         for o in OBSERVABLES:
             vals = [v for v in slot["relative"][o] if math.isfinite(v)]
-            if o == "diffusion" and len(grid) >= MIN_GRID_PAIRS:
+            if o == "diffusion" and len(grid) >= MIN_GRID_PAIRS and len(grid) == len(vals):
                 vals = grid
             if not vals:
                 continue

@@ -115,10 +115,10 @@ def _with_grid(rec, d0_grid_factor):
     return dict(rec, hcs=s)
 
 
-def test_the_diffusion_row_reads_the_multi_origin_grid_once_three_pairs_have_it():
-    """Grids that read the uncorrected case's D0 4 % higher than its first-frame MSD does: with three
-    pairs holding them the row is theirs (3 pairs, +4 % on top of the 2 % effect); with two it is the
-    first-frame MSD's over all four pairs."""
+def test_the_diffusion_row_reads_the_multi_origin_grid_once_every_pair_has_it():
+    """Grids that read the uncorrected case's D0 4 % higher than its first-frame MSD does: with all
+    pairs holding them the row is theirs (+4 % on top of the 2 % effect); with three of four it is
+    the first-frame MSD's over all four pairs; a group of three pairs, all with the grid, is the grid's."""
     effect = {"cooling_rate": 0.0, "temperature_ratio": 0.0, "diffusion": 0.02}
     recs = _records(effect)
 
@@ -126,11 +126,15 @@ def test_the_diffusion_row_reads_the_multi_origin_grid_once_three_pairs_have_it(
         out = [_with_grid(r, 1.04 if r["case"] == "uncorrected" else 1.0) if r["seed"] in seeds else r for r in recs]
         return {r["observable"]: r for r in H.rows(out)}
 
-    three, two = rows_with_grid((1, 2, 3)), rows_with_grid((1, 2))
-    assert three["diffusion"]["n_pairs"] == 3 and H.MIN_GRID_PAIRS == 3
-    assert three["diffusion"]["relative"] == pytest.approx(1.02 * 1.04 - 1, abs=2e-3)
-    assert two["diffusion"]["n_pairs"] == 4 and two["diffusion"]["relative"] == pytest.approx(0.02, abs=2e-3)
-    assert three["cooling_rate"]["n_pairs"] == 4
+    every, three = rows_with_grid((1, 2, 3, 4)), rows_with_grid((1, 2, 3))
+    assert every["diffusion"]["n_pairs"] == 4 and H.MIN_GRID_PAIRS == 3
+    assert every["diffusion"]["relative"] == pytest.approx(1.02 * 1.04 - 1, abs=2e-3)
+    assert three["diffusion"]["n_pairs"] == 4 and three["diffusion"]["relative"] == pytest.approx(0.02, abs=2e-3)
+    recs = [r for r in recs if r["seed"] != 4]
+    only3 = {r["observable"]: r for r in H.rows([_with_grid(r, 1.04 if r["case"] == "uncorrected" else 1.0)
+                                                 for r in recs])}
+    assert only3["diffusion"]["n_pairs"] == 3
+    assert only3["diffusion"]["relative"] == pytest.approx(1.02 * 1.04 - 1, abs=2e-3)
 
 
 def test_a_run_whose_window_ends_before_its_transient_is_named_and_its_pair_left_out(capsys):
