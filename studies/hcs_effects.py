@@ -66,22 +66,8 @@ def load_records(results_dir):
     return out
 
 
-def observables(series, t_transient=T_TRANSIENT):
-    """The HCS observables of one run (:func:`studies.hcs.effect_observables`, past ``t_transient``).
-
-    Parameters
-    ----------
-    series : mapping
-        The run's :func:`studies.hcs.series` (its record's ``hcs`` part).
-    t_transient : float, optional
-        Frames before it (s) are left out of every fit.
-
-    Returns
-    -------
-    dict
-        As :func:`studies.hcs.effect_observables`.
-    """
-    return hcs.effect_observables(series, t_transient)
+# the HCS observables of one run, past the transient (one definition, shared with studies.design)
+observables = hcs.effect_observables
 
 
 def paired(records, t_transient=T_TRANSIENT, left_out=None):

@@ -39,6 +39,7 @@ import time
 import numpy as np
 
 from . import hcs, hcs_dsmc, hcs_effects, hcs_theory
+from .hcs_effects import OBSERVABLES
 from .intervals import t_interval
 
 COLUMNS = ("setting", "observable", "estimator", "n_seeds", "n_studies", "truth", "truth_se", "mean", "bias", "bias_se",
@@ -77,13 +78,14 @@ def truth(setting, n_particles=32000, t_lo=20.0, seeds=tuple(range(91, 99))):
         ``cooling_rate``, ``temperature_ratio`` and ``diffusion``: case / exact - 1 (the mean over
         the seeds), and their standard errors ``cooling_rate_se``, ... .
     """
-    per = {"cooling_rate": [], "temperature_ratio": [], "diffusion": []}
-    for seed in seeds:
-        one = _truth_one(setting, n_particles, t_lo, seed)
-        for k in per:
-            per[k].append(one[k])
-    out = {k: float(np.mean(v)) for k, v in per.items()}
-    out.update({k + "_se": float(np.std(v, ddof=1) / math.sqrt(len(v))) for k, v in per.items()})
+    return _mean_and_se([_truth_one(setting, n_particles, t_lo, seed) for seed in seeds])
+
+
+def _mean_and_se(per_seed):
+    """``{observable: mean over the seeds, observable_se: its standard error}`` of per-seed dicts."""
+    out = {k: float(np.mean([d[k] for d in per_seed])) for k in OBSERVABLES}
+    out.update({k + "_se": float(np.std([d[k] for d in per_seed], ddof=1) / math.sqrt(len(per_seed)))
+                for k in OBSERVABLES})
     return out
 
 
@@ -109,7 +111,7 @@ def _truth_one(setting, n_particles, t_lo, seed):
         out[tag] = {"cooling_rate": float(np.sum(np.diff(lost[sel])) / np.sum(mid * sq * dt)),
                     "temperature_ratio": float(np.mean(t_rot[sel] / t_tr[sel])),
                     "diffusion": float((msd[-1] - msd[0]) / (6.0 * np.sum(sq * dt)))}
-    return {k: out["case"][k] / out["exact"][k] - 1.0 for k in ("cooling_rate", "temperature_ratio", "diffusion")}
+    return {k: out["case"][k] / out["exact"][k] - 1.0 for k in OBSERVABLES}
 
 
 def estimates(series, t_transient=T_TRANSIENT):
@@ -220,7 +222,7 @@ def maxwellian(setting, size=500_000, seeds=(1, 2, 3, 4)):
         seeds), and their standard errors (``..._se``, over the seeds).
     """
     st = SETTINGS[setting]
-    per = {"cooling_rate": [], "temperature_ratio": [], "diffusion": []}
+    per_seed = []
     for seed in seeds:
         x = {}
         for tag, kappa in (("exact", KAPPA), ("case", KAPPA_CASE)):
@@ -229,11 +231,8 @@ def maxwellian(setting, size=500_000, seeds=(1, 2, 3, 4)):
                                                 rng=np.random.default_rng([seed, 7]))
             zeta, nu_v = -avg.d_e_tr / 3.0, -avg.d_v_dot_v / 3.0
             x[tag] = {"temperature_ratio": r, "cooling_rate": zeta, "diffusion": 1.0 / (nu_v - zeta / 2.0)}
-        for k in per:
-            per[k].append(x["case"][k] / x["exact"][k] - 1.0)
-    out = {k: float(np.mean(v)) for k, v in per.items()}
-    out.update({k + "_se": float(np.std(v, ddof=1) / math.sqrt(len(v))) for k, v in per.items()})
-    return out
+        per_seed.append({k: x["case"][k] / x["exact"][k] - 1.0 for k in OBSERVABLES})
+    return _mean_and_se(per_seed)
 
 
 def maxwellian_rows(setting, truth_, maxwellian_):
@@ -243,7 +242,7 @@ def maxwellian_rows(setting, truth_, maxwellian_):
              "maxwellian": maxwellian_[k], "maxwellian_se": maxwellian_[k + "_se"],
              "difference": maxwellian_[k] - truth_[k],
              "difference_se": math.hypot(truth_[k + "_se"], maxwellian_[k + "_se"])}
-            for k in ("cooling_rate", "temperature_ratio", "diffusion")]
+            for k in OBSERVABLES]
 
 
 def main(argv=None):
@@ -267,7 +266,7 @@ def main(argv=None):
         t0 = time.time()
         tr = truth(name)
         print(f"[hcs-estimator] {name}: truth " + ", ".join(
-            f"{k} {100 * tr[k]:+.2f} ± {100 * tr[k + '_se']:.2f} %" for k in ("cooling_rate", "temperature_ratio", "diffusion"))
+            f"{k} {100 * tr[k]:+.2f} ± {100 * tr[k + '_se']:.2f} %" for k in OBSERVABLES)
             + f" ({time.time() - t0:.0f} s)", file=sys.stderr)
         theory += maxwellian_rows(name, tr, maxwellian(name))
         if not a.theory_only:

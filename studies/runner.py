@@ -430,7 +430,8 @@ def rereduce(results_dir):
     Returns
     -------
     (int, int)
-        Records refreshed, and cooling records without raw frames (left as they are).
+        Records refreshed (those whose series changed), and cooling records without raw frames
+        (left as they are).
     """
     done = skipped = 0
     for path in sorted(glob.glob(os.path.join(results_dir, "runs", "*.json"))):
@@ -446,8 +447,10 @@ def rereduce(results_dir):
             frames = {k: z[k] for k in z.files}
         with open(raw + ".run.json") as f:
             rin = json.load(f)
-        write_atomic(path, json.dumps(red.refresh_hcs(rec, frames, rin), separators=(",", ":")))
-        done += 1
+        new = red.refresh_hcs(rec, frames, rin)
+        if new["hcs"] != rec["hcs"]:          # the current reduction's series already there: no rewrite
+            write_atomic(path, json.dumps(new, separators=(",", ":")))
+            done += 1
     return done, skipped
 
 

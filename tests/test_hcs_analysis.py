@@ -274,6 +274,7 @@ def test_rereduce_gives_records_without_the_grid_what_the_reduction_stores_now(t
     np.savez(tmp_path / "raw" / "a.npz", **fr)
     (tmp_path / "raw" / "a.run.json").write_text(json.dumps(rin))
     assert runner.rereduce(str(tmp_path)) == (1, 1)
+    assert runner.rereduce(str(tmp_path)) == (0, 1)                  # already current: not rewritten
     a = json.loads((tmp_path / "runs" / "a.json").read_text())
     assert a == {**json.loads(json.dumps(fresh)), "name": "a", "seed": 1}
     assert "grid_msd" not in json.loads((tmp_path / "runs" / "b.json").read_text())["hcs"]
