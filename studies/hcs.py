@@ -326,6 +326,12 @@ def fit_scaled_msd_grid(grid_t, grid_msd, tau0, t_lo=0.0, t_hi=None, min_lag=GRI
     return {"d0": float(b / (6.0 * tau0)), "intercept": float(a), "n_pairs": int(sel.sum())}
 
 
+def _cells(pos, box, m):
+    """The flat index of the cell of each position (..., 3) in a periodic box cut into m^3 cells."""
+    idx = np.floor(np.mod(pos, box) / box * m).astype(int) % m
+    return (idx[..., 0] * m + idx[..., 1]) * m + idx[..., 2]
+
+
 def count_variance_ratio(pos, box, cells_per_side):
     """Variance of particle counts in sub-cells over that of a homogeneous (binomial) gas.
 
@@ -348,11 +354,55 @@ def count_variance_ratio(pos, box, cells_per_side):
     single = p.ndim == 2
     p = p[None] if single else p
     m = int(cells_per_side)
-    idx = np.floor(np.mod(p, box) / box * m).astype(int) % m
-    flat = (idx[..., 0] * m + idx[..., 1]) * m + idx[..., 2]
+    flat = _cells(p, box, m)
     n = p.shape[1]
     prob = 1.0 / m ** 3
     out = np.array([np.bincount(f, minlength=m ** 3).var() for f in flat]) / (n * prob * (1 - prob))
+    return float(out[0]) if single else out
+
+
+def flow_energy_ratio(pos, vel, box, cells_per_side):
+    """Kinetic energy of the coarse-grained flow over that of a gas without velocity correlations.
+
+    A cooling gas can stay homogeneous in density while its shear modes grow into vortices (the
+    first instability of the HCS, Goldhirsch and Zanetti 1993); the energy of the cell-averaged
+    velocity field measures them.  In each of the cells_per_side^3 cells the sum of the velocities
+    (the gas's mean velocity removed) is S_c over n_c particles; a gas whose particles move
+    independently has sum_c |S_c|^2 / n_c = 3 (M' - 1) sigma^2 on average for M' occupied cells, and
+    sum_i |v_i|^2 = 3 (N - 1) sigma^2.
+
+    Parameters
+    ----------
+    pos, vel : array_like, shape (N, 3) or (n_frames, N, 3)
+        Positions (m; wrapped into the periodic box here) and translational velocities (m/s).
+    box : float
+        Edge of the cubic periodic box (m).
+    cells_per_side : int
+        The box is cut into cells_per_side^3 cubic cells.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        [sum_c |S_c|^2 / n_c / (M' - 1)] / [sum_i |v_i|^2 / (N - 1)]: about 1 without correlations
+        (sampling noise sqrt(2 / (3 (M - 1)))), a little above it with the short-range correlations
+        of a dissipative gas, and growing with the vortices of a shear instability.
+    """
+    p, v = np.asarray(pos, float), np.asarray(vel, float)
+    if p.shape != v.shape or p.shape[-1] != 3 or p.ndim not in (2, 3):
+        raise ValueError(f"positions {p.shape} and velocities {v.shape} must both be (N, 3) or (n_frames, N, 3)")
+    single = p.ndim == 2
+    p, v = (p[None], v[None]) if single else (p, v)
+    m = int(cells_per_side)
+    flat = _cells(p, box, m)
+    n = p.shape[1]
+    out = np.empty(len(p))
+    for k, (f, vk) in enumerate(zip(flat, v)):
+        vk = vk - vk.mean(axis=0)
+        counts = np.bincount(f, minlength=m ** 3)
+        sums = np.stack([np.bincount(f, vk[:, d], minlength=m ** 3) for d in range(3)], axis=1)
+        occupied = counts > 0
+        flow = np.sum(np.sum(sums[occupied] ** 2, axis=1) / counts[occupied]) / max(int(occupied.sum()) - 1, 1)
+        out[k] = flow / (np.sum(vk ** 2) / (n - 1))
     return float(out[0]) if single else out
 
 
@@ -442,7 +492,8 @@ def series(frames, run_input, cells_per_side=4):
     dict
         ``t`` (s), ``e_trans`` and ``e_rot`` (J, whole gas), ``msd`` (:func:`msd_from_start`, m^2),
         ``grid_t`` and ``grid_msd`` (:func:`msd_grid`),
-        ``count_ratio`` (:func:`count_variance_ratio`), and ``cells_per_side``, ``n_particles``,
+        ``count_ratio`` (:func:`count_variance_ratio`), ``flow_ratio`` (:func:`flow_energy_ratio`, when the
+        frames hold velocities ``vel``), and ``cells_per_side``, ``n_particles``,
         ``rot_dof``, ``box_length`` (m), the body's ``builder``, ``mass`` (kg) and ``diameter`` (m,
         spheres; None for clumps), the contact's ``restitution`` and ``friction``.
     """
@@ -453,6 +504,8 @@ def series(frames, run_input, cells_per_side=4):
             "e_rot": np.asarray(frames["e_rot"], float), "msd": msd_from_start(disp),
             **msd_grid(frames["t"], disp),
             "count_ratio": count_variance_ratio(pos0[None] + disp, float(run_input["box_length"]), cells_per_side),
+            **({"flow_ratio": flow_energy_ratio(pos0[None] + disp, frames["vel"], float(run_input["box_length"]),
+                                                cells_per_side)} if "vel" in frames else {}),
             "cells_per_side": int(cells_per_side), "n_particles": int(len(pos0)),
             "rot_dof": rotational_dof(run_input), "box_length": float(run_input["box_length"]),
             "builder": body["builder"], "mass": float(body["mass"]),

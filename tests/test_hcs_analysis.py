@@ -94,6 +94,27 @@ def test_count_variance_ratio_uniform_vs_clustered():
     assert both.shape == (2,) and both[0] == pytest.approx(r_uni)
 
 
+def test_flow_energy_ratio_is_one_without_correlations_and_measures_an_imposed_shear_flow():
+    """Independent velocities give 1 within the noise sqrt(2 / (3 (M - 1))); a shear flow
+    u_x = A sin(2 pi z / L) on top adds the cells' mean flow, whose energy follows from the cell
+    average of the sine (sin(pi/4) / (pi/4) for 4 cells per side): an independent closed form."""
+    rng = np.random.default_rng(3)
+    box, n, m, sigma = 10.0, 4000, 4, 1.5
+    pos = rng.uniform(0, box, (6, n, 3))
+    vel = rng.normal(0.0, sigma, (6, n, 3)) + 2.0                        # the gas's mean velocity is removed
+    still = hcs.flow_energy_ratio(pos, vel, box, m)
+    assert still.shape == (6,) and abs(still.mean() - 1.0) < 3 * math.sqrt(2 / (3 * (m ** 3 - 1))) / math.sqrt(6)
+    amp = sigma
+    sheared = vel.copy()
+    sheared[..., 0] += amp * np.sin(2 * np.pi * pos[..., 2] / box)
+    sinc = math.sin(math.pi / m) / (math.pi / m)
+    expected = (n * (amp * sinc) ** 2 / 2 / (m ** 3 - 1) + 3 * sigma ** 2) / (3 * sigma ** 2 + amp ** 2 / 2)
+    assert hcs.flow_energy_ratio(pos, sheared, box, m).mean() == pytest.approx(expected, rel=0.05)
+    assert hcs.flow_energy_ratio(pos[0], vel[0], box, m) == pytest.approx(still[0])
+    with pytest.raises(ValueError, match="velocities"):
+        hcs.flow_energy_ratio(pos, vel[:, :10], box, m)
+
+
 def test_homogeneous_until_marks_the_onset_of_clustering():
     rng = np.random.default_rng(2)
     m = 64

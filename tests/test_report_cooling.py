@@ -69,6 +69,27 @@ def test_the_cooling_checks_name_groups_still_relaxing_and_estimators_that_miss(
     assert "| weakly_rough | temperature_ratio | mean | -10.00 ± 0.10 % | +17.00 ± 0.20 % |" in text and "(not 95 %)" in text
 
 
+def test_the_flow_check_names_groups_whose_velocity_field_grows_and_skips_runs_without_it(tmp_path):
+    base = {"shape": "dimer", "n_spheres": 2, "restitution": 0.9, "case": "exact", "n_runs": 4, "drift": 0.0,
+            "drift_ci_low": -0.02, "drift_ci_high": 0.02, "window_start": 5, "window_end": 30}
+    relax = [dict(base, friction=f, flow_runs=k, flow_ratio=fr, flow_growth=g, flow_growth_ci_low=g - 0.03,
+                  flow_growth_ci_high=g + 0.03)
+             for f, k, fr, g in ((0.0, 4, 1.02, 0.0), (0.5, 4, 1.9, 0.4), (0.25, 0, float("nan"), float("nan")))]
+    _write(tmp_path / "hcs_relaxation.csv", relax)
+    checked, growing = tables.cooling_flow(str(tmp_path))
+    assert [r["friction"] for r in checked] == [0.0, 0.5] and [r["friction"] for r in growing] == [0.5]
+    e, moving, n = tables.cooling_checks(str(tmp_path))
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035)])
+    _, clumps, _, _ = tables.cooling_tables(str(tmp_path))
+    text = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], estimator=e, moving=moving,
+                  n_relax=n, flow=(checked, growing))
+    assert "over the 8 runs whose raw frames gave it" in text and "between 1.02 and 1.90 in the 2 groups" in text
+    assert "It grows in 1 of them (dimer mu = 0.5 exact: +40.00 % [+37.0, +43.0] %)" in text
+    calm = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], estimator=e, moving=moving,
+                  n_relax=n, flow=(checked[:1], []))
+    assert "no vortices form within the analysed windows" in calm
+
+
 def test_the_maxwellian_check_marks_differences_beyond_twice_their_error(tmp_path):
     (tmp_path / "estimator").mkdir()
     rows = [{"setting": "rough", "observable": o, "truth": t, "truth_se": 0.001, "maxwellian": m, "maxwellian_se": 0.0002,

@@ -317,6 +317,14 @@ def cooling_checks(results):
     return est, moving, len(relax)
 
 
+def cooling_flow(results):
+    """The velocity-field check of ``results/hcs_relaxation.csv``: (its rows with a flow growth over
+    two or more runs, those whose growth interval lies above 0: vortices forming in the window)."""
+    rows = [r for r in _csv_rows(os.path.join(results, "hcs_relaxation.csv"))
+            if r.get("flow_runs") is not None and r["flow_runs"] >= 2]
+    return rows, [r for r in rows if r["flow_growth_ci_low"] > 0]
+
+
 def cooling_maxwellian(results):
     """Rows of ``results/estimator/hcs_maxwellian.csv``: each relative effect of the synthetic
     gases in the DSMC and in the Maxwellian approximation the predictor uses, with ``agrees``
