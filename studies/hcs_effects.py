@@ -75,8 +75,8 @@ def paired(records, t_transient=T_TRANSIENT, left_out=None):
     ----------
     records : list of dict
         Reduced run records (:func:`load_records`).
-    t_transient : float, optional
-        As :func:`observables`.
+    t_transient : float or callable, optional
+        As :func:`observables`; a callable gives each run's own from its series.
     left_out : list, optional
         Gets ``(run name, reason)`` for each run whose window cannot be analysed (it ends, where the
         gas clusters, before the transient does): that run's pair is left out of every row.
@@ -120,7 +120,7 @@ def _observables_or_none(rec, t_transient, left_out):
     """:func:`observables` of a record, or None (its name and the reason put in ``left_out``) when
     its window holds too few frames."""
     try:
-        return observables(rec["hcs"], t_transient)
+        return observables(rec["hcs"], t_transient(rec["hcs"]) if callable(t_transient) else t_transient)
     except ValueError as e:
         if left_out is not None and all(name != rec.get("name") for name, _ in left_out):
             left_out.append((rec.get("name", "?"), str(e)))
@@ -278,6 +278,68 @@ def relaxation_rows(records, t_transient=T_TRANSIENT):
     return out
 
 
+WINDOW_COLUMNS = ("shape", "n_spheres", "restitution", "friction", "case", "observable", "n_pairs", "shift",
+                  "shift_ci_low", "shift_ci_high", "window_start", "later_start")
+# the fraction of each run's analysed window that the window check drops from its start
+WINDOW_DROP = 0.25
+
+
+def later_start(series, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
+    """The start (s) of a run's window with its first ``drop`` fraction left out: t_transient +
+    drop (t_end - t_transient), t_end where the gas stops being homogeneous."""
+    t = np.asarray(series["t"], float)
+    t_hom = hcs.homogeneous_until(t, np.asarray(series["count_ratio"], float), int(series["cells_per_side"]) ** 3)
+    return t_transient + drop * max(t_hom - t_transient, 0.0)
+
+
+def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
+    """Rows of ``results/hcs_window.csv``: how far each effect of :func:`rows` moves when every run's
+    window starts later (its first ``drop`` fraction left out, :func:`later_start`).  In the HCS the
+    observables do not depend on the window, so a shift whose interval excludes 0 says the window
+    still holds something else (the relaxation from the equipartition start, or a slow drift) at
+    that effect's precision.  Per seed the shift is the later window's relative effect minus the
+    whole window's; the interval is Student-t over the seeds.
+
+    Parameters
+    ----------
+    records : list of dict
+        Reduced records of cooling clump runs (:func:`load_records`).
+    t_transient : float, optional
+        As :func:`observables`.
+    drop : float, optional
+        The fraction of each window left out at its start.
+
+    Returns
+    -------
+    list of dict
+    """
+    if not 0.0 < drop < 1.0:
+        raise ValueError(f"drop must lie in (0, 1), got {drop}")
+    whole = paired(records, t_transient)
+    cut = paired(records, lambda series: later_start(series, t_transient, drop))
+    starts = {}
+    for rec in records:
+        key = (json.dumps(_pair_facts(rec["params"]), sort_keys=True), rec["case"])
+        starts.setdefault(key, []).append(later_start(rec["hcs"], t_transient, drop))
+    out = []
+    for key, slot in whole.items():
+        other = cut.get(key)
+        if other is None:
+            continue
+        for o in OBSERVABLES:
+            by_seed = dict(zip(other["seeds"], other["relative"][o]))
+            d = [by_seed[sd] - v for sd, v in zip(slot["seeds"], slot["relative"][o])
+                 if sd in by_seed and math.isfinite(v) and math.isfinite(by_seed[sd])]
+            if len(d) < 2:
+                continue
+            m, lo, hi, _, n = t_interval(d)
+            out.append({**_group_fields(slot["params"]), "case": key[1], "observable": o, "n_pairs": n, "shift": m,
+                        "shift_ci_low": lo, "shift_ci_high": hi, "window_start": float(t_transient),
+                        "later_start": float(np.mean(starts[key]))})
+    out.sort(key=lambda r: (r["shape"], r["friction"], r["restitution"], r["case"], OBSERVABLES.index(r["observable"])))
+    return out
+
+
 def write_csv(path, columns, rows_, fmt=".10g"):
     """Write ``rows_`` (dicts) as CSV with the header ``columns``: floats as ``fmt``, None as an
     empty cell (the tables of the cooling gases: ``hcs_theory.csv``, ``hcs_effects.csv``, ``law.csv``).
@@ -325,7 +387,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m studies hcs-effects",
                                  description="Each case's relative effect on the cooling rate, T_rot / T_tr and the "
                                              "HCS self-diffusion of clump gases, from the committed run records.",
-                                 epilog="Writes results/hcs_effects.csv (or --out) and hcs_relaxation.csv beside it. "
+                                 epilog="Writes results/hcs_effects.csv (or --out), and hcs_relaxation.csv and "
+                                        "hcs_window.csv beside it. "
                                         "Intervals: Student-t over seeds.")
     ap.add_argument("specs", nargs="*", default=["hcs_clumps"], help="cooling clump studies (default: hcs_clumps)")
     ap.add_argument("--t-transient", type=float, default=T_TRANSIENT, metavar="S",
@@ -346,9 +409,11 @@ def main(argv=None):
     write(a.out, out)
     relax = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_relaxation.csv")
     write_csv(relax, RELAXATION_COLUMNS, relaxation_rows(records, a.t_transient))
+    window = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_window.csv")
+    write_csv(window, WINDOW_COLUMNS, window_rows(records, a.t_transient))
     for r in out:
         print(f"[hcs-effects] {r['shape']} e={r['restitution']:g} mu={r['friction']:g} {r['case']:>12} "
               f"{r['observable']:>17}: {100 * r['relative']:+.2f} % [{100 * r['relative_ci_low']:+.2f}, "
               f"{100 * r['relative_ci_high']:+.2f}] ({r['n_pairs']} pairs)")
-    print(f"[hcs-effects] wrote {a.out} and {relax}")
+    print(f"[hcs-effects] wrote {a.out}, {relax} and {window}")
     return 0

@@ -123,6 +123,29 @@ def test_the_relaxation_rows_tell_a_growing_flow_field_from_a_still_one():
     assert all(r["flow_runs"] == 0 and math.isnan(r["flow_growth"]) for r in bare)
 
 
+def test_the_window_check_finds_an_effect_that_moves_with_the_window_and_none_in_the_hcs():
+    """In the HCS dropping the window's first quarter moves no effect; a case whose T_rot / T_tr
+    still relaxes slowly (10 % above its value, decaying over 10 s) reads a smaller ratio effect
+    from the later window, and the check's interval says so."""
+    recs = _records({"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02})
+    rows = H.window_rows(recs)
+    assert len(rows) == 3 and all(r["n_pairs"] == 4 for r in rows)
+    for r in rows:
+        assert abs(r["shift"]) < 2e-3, r
+        assert r["window_start"] == 5.0 and r["later_start"] == pytest.approx(5.0 + 0.25 * 35.0)
+    slow = []
+    for r in recs:
+        s = dict(r["hcs"])
+        if r["case"] == "uncorrected":
+            t = np.asarray(s["t"])
+            s["e_rot"] = (np.asarray(s["e_rot"]) * (1 + 0.1 * np.exp(-t / 10.0))).tolist()
+        slow.append(dict(r, hcs=s))
+    ratio = next(r for r in H.window_rows(slow) if r["observable"] == "temperature_ratio")
+    assert ratio["shift_ci_high"] < 0 and -0.05 < ratio["shift"] < -0.005
+    with pytest.raises(ValueError, match="drop"):
+        H.window_rows(recs, drop=1.0)
+
+
 def _with_grid(rec, d0_grid_factor):
     """The record with a multi-origin MSD grid whose D0 is ``d0_grid_factor`` times its first-frame MSD's."""
     s = dict(rec["hcs"])

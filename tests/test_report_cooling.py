@@ -90,6 +90,24 @@ def test_the_flow_check_names_groups_whose_velocity_field_grows_and_skips_runs_w
     assert "no vortices form within the analysed windows" in calm
 
 
+def test_the_window_check_names_effects_that_move_with_the_window_start(tmp_path):
+    rows = [{"shape": "tetrahedron", "n_spheres": 4, "restitution": 0.9, "friction": 0.5, "case": "uncorrected",
+             "observable": o, "n_pairs": 8, "shift": sh, "shift_ci_low": sh - 0.01, "shift_ci_high": sh + 0.01,
+             "window_start": 5, "later_start": ls} for o, sh, ls in (("cooling_rate", -0.02, 13.0),
+                                                                     ("diffusion", 0.005, 12.0))]
+    _write(tmp_path / "hcs_window.csv", rows)
+    every, moving = tables.cooling_window(str(tmp_path))
+    assert len(every) == 2 and [r["observable"] for r in moving] == ["cooling_rate"]
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035)])
+    _, clumps, _, _ = tables.cooling_tables(str(tmp_path))
+    text = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], window=(every, moving))
+    assert "on average, 12.0-13.0 s" in text
+    assert "In 1 of 2 rows the shift's interval excludes 0 (tetrahedron mu = 0.5 uncorrected cooling_rate: " \
+           "-2.00 pp [-3.00, -1.00])" in text
+    calm = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], window=(every, []))
+    assert "In none of its 2 rows does the shift's interval exclude 0." in calm
+
+
 def test_the_maxwellian_check_marks_differences_beyond_twice_their_error(tmp_path):
     (tmp_path / "estimator").mkdir()
     rows = [{"setting": "rough", "observable": o, "truth": t, "truth_se": 0.001, "maxwellian": m, "maxwellian_se": 0.0002,

@@ -325,6 +325,13 @@ def cooling_flow(results):
     return rows, [r for r in rows if r["flow_growth_ci_low"] > 0]
 
 
+def cooling_window(results):
+    """The window check of ``results/hcs_window.csv``: (its rows, those whose shift interval
+    excludes 0: effects that move when each run's window starts later)."""
+    rows = _csv_rows(os.path.join(results, "hcs_window.csv"))
+    return rows, [r for r in rows if r["shift_ci_high"] < 0 or r["shift_ci_low"] > 0]
+
+
 def cooling_maxwellian(results):
     """Rows of ``results/estimator/hcs_maxwellian.csv``: each relative effect of the synthetic
     gases in the DSMC and in the Maxwellian approximation the predictor uses, with ``agrees``
