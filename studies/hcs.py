@@ -384,25 +384,31 @@ def flow_energy_ratio(pos, vel, box, cells_per_side):
     -------
     float or numpy.ndarray
         [sum_c |S_c|^2 / n_c / (M' - 1)] / [sum_i |v_i|^2 / (N - 1)]: about 1 without correlations
-        (sampling noise sqrt(2 / (3 (M - 1)))), a little above it with the short-range correlations
-        of a dissipative gas, and growing with the vortices of a shear instability.
+        (sampling noise sqrt(2 / (3 (M - 1)))), above it where velocities are correlated within a
+        cell, and growing with the vortices of a shear instability; NaN for a frame
+        with one occupied cell or no motion.
     """
     p, v = np.asarray(pos, float), np.asarray(vel, float)
     if p.shape != v.shape or p.shape[-1] != 3 or p.ndim not in (2, 3):
         raise ValueError(f"positions {p.shape} and velocities {v.shape} must both be (N, 3) or (n_frames, N, 3)")
+    if p.shape[-2] < 2 or int(cells_per_side) < 1:
+        raise ValueError(f"need 2 or more particles and 1 or more cells per side, got {p.shape[-2]} and {cells_per_side}")
     single = p.ndim == 2
     p, v = (p[None], v[None]) if single else (p, v)
     m = int(cells_per_side)
     flat = _cells(p, box, m)
     n = p.shape[1]
-    out = np.empty(len(p))
+    out = np.full(len(p), np.nan)
     for k, (f, vk) in enumerate(zip(flat, v)):
         vk = vk - vk.mean(axis=0)
         counts = np.bincount(f, minlength=m ** 3)
         sums = np.stack([np.bincount(f, vk[:, d], minlength=m ** 3) for d in range(3)], axis=1)
         occupied = counts > 0
-        flow = np.sum(np.sum(sums[occupied] ** 2, axis=1) / counts[occupied]) / max(int(occupied.sum()) - 1, 1)
-        out[k] = flow / (np.sum(vk ** 2) / (n - 1))
+        total = np.sum(vk ** 2)
+        if occupied.sum() < 2 or not total > 0:         # one cell, or a gas at rest: no flow to compare
+            continue
+        flow = np.sum(np.sum(sums[occupied] ** 2, axis=1) / counts[occupied]) / (int(occupied.sum()) - 1)
+        out[k] = flow / (total / (n - 1))
     return float(out[0]) if single else out
 
 
@@ -440,6 +446,12 @@ def homogeneous_until(t, ratio, n_cells, z=3.0, n_consecutive=3, min_duration=1.
         if start is not None and k - start + 1 >= n_consecutive and t[k] - t[start] >= min_duration - 1e-12:
             return float(t[start])
     return float(t[-1])
+
+
+def window_end(series):
+    """The end (s) of a run's analysed window: :func:`homogeneous_until` of its series."""
+    return homogeneous_until(np.asarray(series["t"], float), np.asarray(series["count_ratio"], float),
+                             int(series["cells_per_side"]) ** 3)
 
 
 def haff_theory(n_particles, box, diameter, mass, t0, restitution):
@@ -536,7 +548,7 @@ def analyse_series(s, t_transient=0.0, fit_from=0.0):
     t, e_trans, e_rot = (np.asarray(s[k], float) for k in ("t", "e_trans", "e_rot"))
     f_rot = int(s["rot_dof"])
     t_tr, t_rot = temperatures(e_trans, e_rot, int(s["n_particles"]), f_rot)
-    t_hom = homogeneous_until(t, np.asarray(s["count_ratio"], float), int(s["cells_per_side"]) ** 3)
+    t_hom = window_end(s)
     haff = fit_haff(t, t_tr, fit_from, t_hom)
     rot = (temperature_ratio(t, t_tr, t_rot, t_transient, t_hom)
            if np.max(e_rot) > 1e-9 * e_trans[0] and t_transient < t_hom else None)

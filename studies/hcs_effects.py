@@ -76,7 +76,7 @@ def paired(records, t_transient=T_TRANSIENT, left_out=None):
     records : list of dict
         Reduced run records (:func:`load_records`).
     t_transient : float or callable, optional
-        As :func:`observables`; a callable gives each run's own from its series.
+        As :func:`observables`; a callable gives each run's own from its record.
     left_out : list, optional
         Gets ``(run name, reason)`` for each run whose window cannot be analysed (it ends, where the
         gas clusters, before the transient does): that run's pair is left out of every row.
@@ -120,7 +120,7 @@ def _observables_or_none(rec, t_transient, left_out):
     """:func:`observables` of a record, or None (its name and the reason put in ``left_out``) when
     its window holds too few frames."""
     try:
-        return observables(rec["hcs"], t_transient(rec["hcs"]) if callable(t_transient) else t_transient)
+        return observables(rec["hcs"], t_transient(rec) if callable(t_transient) else t_transient)
     except ValueError as e:
         if left_out is not None and all(name != rec.get("name") for name, _ in left_out):
             left_out.append((rec.get("name", "?"), str(e)))
@@ -193,13 +193,24 @@ def ratio_drift(series, t_transient=T_TRANSIENT):
     """
     t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
     t_tr, t_rot = hcs.temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
-    t_hom = hcs.homogeneous_until(t, np.asarray(series["count_ratio"], float), int(series["cells_per_side"]) ** 3)
-    sel = (t >= t_transient) & (t <= t_hom)
-    if sel.sum() < 4 or np.max(e_rot) <= 1e-9 * e_tr[0]:
+    t_hom = hcs.window_end(series)
+    if np.max(e_rot) <= 1e-9 * e_tr[0]:
         return float("nan"), t_transient, t_hom
-    r = (t_rot / t_tr)[sel]
-    half = len(r) // 2
-    return float(r[half:].mean() / r[:half].mean() - 1.0), t_transient, t_hom
+    return _half_drift(t, t_rot / t_tr, t_transient, t_hom)[0], t_transient, t_hom
+
+
+def _half_drift(t, x, t_lo, t_hi):
+    """The mean of ``x`` over the second half of the frames of [t_lo, t_hi] (its finite values) over
+    that of the first half, minus one, and the second half's mean; NaN for fewer than 4 frames."""
+    x = np.asarray(x, float)
+    if x.shape != np.shape(t):
+        raise ValueError(f"{x.shape[0] if x.ndim else 0} values for {len(t)} frames")
+    sel = (t >= t_lo) & (t <= t_hi) & np.isfinite(x)
+    if sel.sum() < 4:
+        return float("nan"), float("nan")
+    v = x[sel]
+    half = len(v) // 2
+    return float(v[half:].mean() / v[:half].mean() - 1.0), float(v[half:].mean())
 
 
 def flow_growth(series, t_transient=T_TRANSIENT):
@@ -217,19 +228,12 @@ def flow_growth(series, t_transient=T_TRANSIENT):
     Returns
     -------
     (float, float)
-        The growth and the late mean; NaN for a series without ``flow_ratio`` (reduced before it
-        existed, its raw frames not kept) or with fewer than 4 frames in the window.
+        The growth and the late mean; NaN for a series without ``flow_ratio`` (frames without
+        velocities) or with fewer than 4 finite values in the window.
     """
     if "flow_ratio" not in series:
         return float("nan"), float("nan")
-    t = np.asarray(series["t"], float)
-    t_hom = hcs.homogeneous_until(t, np.asarray(series["count_ratio"], float), int(series["cells_per_side"]) ** 3)
-    sel = (t >= t_transient) & (t <= t_hom)
-    if sel.sum() < 4:
-        return float("nan"), float("nan")
-    f = np.asarray(series["flow_ratio"], float)[sel]
-    half = len(f) // 2
-    return float(f[half:].mean() / f[:half].mean() - 1.0), float(f[half:].mean())
+    return _half_drift(np.asarray(series["t"], float), series["flow_ratio"], t_transient, hcs.window_end(series))
 
 
 def relaxation_rows(records, t_transient=T_TRANSIENT):
@@ -279,26 +283,24 @@ def relaxation_rows(records, t_transient=T_TRANSIENT):
 
 
 WINDOW_COLUMNS = ("shape", "n_spheres", "restitution", "friction", "case", "observable", "n_pairs", "shift",
-                  "shift_ci_low", "shift_ci_high", "window_start", "later_start")
-# the fraction of each run's analysed window that the window check drops from its start
+                  "shift_ci_low", "shift_ci_high", "window_start", "later_start", "drop")
+# the fraction of each seed's analysed window that the window check drops from its start
 WINDOW_DROP = 0.25
 
 
-def later_start(series, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
-    """The start (s) of a run's window with its first ``drop`` fraction left out: t_transient +
-    drop (t_end - t_transient), t_end where the gas stops being homogeneous."""
-    t = np.asarray(series["t"], float)
-    t_hom = hcs.homogeneous_until(t, np.asarray(series["count_ratio"], float), int(series["cells_per_side"]) ** 3)
-    return t_transient + drop * max(t_hom - t_transient, 0.0)
+def later_start(t_transient, t_end, drop=WINDOW_DROP):
+    """The start (s) of a window [t_transient, t_end] with its first ``drop`` fraction left out."""
+    return t_transient + drop * max(t_end - t_transient, 0.0)
 
 
-def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
-    """Rows of ``results/hcs_window.csv``: how far each effect of :func:`rows` moves when every run's
-    window starts later (its first ``drop`` fraction left out, :func:`later_start`).  In the HCS the
-    observables do not depend on the window, so a shift whose interval excludes 0 says the window
-    still holds something else (the relaxation from the equipartition start, or a slow drift) at
-    that effect's precision.  Per seed the shift is the later window's relative effect minus the
-    whole window's; the interval is Student-t over the seeds.
+def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP, left_out=None):
+    """Rows of ``results/hcs_window.csv``: how far each effect of :func:`rows` moves when the window
+    starts later.  Every run of a seed (exact and each case) starts its later window at one time,
+    :func:`later_start` of the seed's shortest window, so a pair's two runs stay matched.  In the
+    HCS the observables do not depend on the window, so a shift whose interval excludes 0 says the
+    window still holds something else (the relaxation from the equipartition start, or a slow
+    drift) at that effect's precision.  Per seed the shift is the later window's relative effect
+    minus the whole window's; the interval is Student-t over the seeds.
 
     Parameters
     ----------
@@ -307,7 +309,10 @@ def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
     t_transient : float, optional
         As :func:`observables`.
     drop : float, optional
-        The fraction of each window left out at its start.
+        The fraction of each seed's window left out at its start.
+    left_out : list, optional
+        As :func:`paired`, for the later windows: a seed whose later window is too short for a fit
+        is left out of the shift (so a row's ``n_pairs`` can be below ``hcs_effects.csv``'s).
 
     Returns
     -------
@@ -315,12 +320,15 @@ def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
     """
     if not 0.0 < drop < 1.0:
         raise ValueError(f"drop must lie in (0, 1), got {drop}")
-    whole = paired(records, t_transient)
-    cut = paired(records, lambda series: later_start(series, t_transient, drop))
-    starts = {}
+
+    def seed_key(rec):
+        return json.dumps(_pair_facts(rec["params"]), sort_keys=True), rec["seed"]
+
+    ends = {}
     for rec in records:
-        key = (json.dumps(_pair_facts(rec["params"]), sort_keys=True), rec["case"])
-        starts.setdefault(key, []).append(later_start(rec["hcs"], t_transient, drop))
+        ends[seed_key(rec)] = min(ends.get(seed_key(rec), math.inf), hcs.window_end(rec["hcs"]))
+    whole = paired(records, t_transient)
+    cut = paired(records, lambda rec: later_start(t_transient, ends[seed_key(rec)], drop), left_out)
     out = []
     for key, slot in whole.items():
         other = cut.get(key)
@@ -328,14 +336,16 @@ def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP):
             continue
         for o in OBSERVABLES:
             by_seed = dict(zip(other["seeds"], other["relative"][o]))
-            d = [by_seed[sd] - v for sd, v in zip(slot["seeds"], slot["relative"][o])
-                 if sd in by_seed and math.isfinite(v) and math.isfinite(by_seed[sd])]
-            if len(d) < 2:
+            used = [(sd, by_seed[sd] - v) for sd, v in zip(slot["seeds"], slot["relative"][o])
+                    if sd in by_seed and math.isfinite(v) and math.isfinite(by_seed[sd])]
+            if len(used) < 2:
                 continue
-            m, lo, hi, _, n = t_interval(d)
+            m, lo, hi, _, n = t_interval([d for _, d in used])
             out.append({**_group_fields(slot["params"]), "case": key[1], "observable": o, "n_pairs": n, "shift": m,
                         "shift_ci_low": lo, "shift_ci_high": hi, "window_start": float(t_transient),
-                        "later_start": float(np.mean(starts[key]))})
+                        "later_start": float(np.mean([later_start(t_transient, ends[(key[0], sd)], drop)
+                                                      for sd, _ in used])),
+                        "drop": float(drop)})
     out.sort(key=lambda r: (r["shape"], r["friction"], r["restitution"], r["case"], OBSERVABLES.index(r["observable"])))
     return out
 
@@ -410,7 +420,10 @@ def main(argv=None):
     relax = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_relaxation.csv")
     write_csv(relax, RELAXATION_COLUMNS, relaxation_rows(records, a.t_transient))
     window = os.path.join(os.path.dirname(os.path.abspath(a.out)), "hcs_window.csv")
-    write_csv(window, WINDOW_COLUMNS, window_rows(records, a.t_transient))
+    short = []
+    write_csv(window, WINDOW_COLUMNS, window_rows(records, a.t_transient, left_out=short))
+    for name, why in short:
+        print(f"[hcs-effects] the window check leaves out {name}'s seed (its later window): {why}", file=sys.stderr)
     for r in out:
         print(f"[hcs-effects] {r['shape']} e={r['restitution']:g} mu={r['friction']:g} {r['case']:>12} "
               f"{r['observable']:>17}: {100 * r['relative']:+.2f} % [{100 * r['relative_ci_low']:+.2f}, "

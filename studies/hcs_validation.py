@@ -152,7 +152,7 @@ def bracketed_ratio(below, above, t_lo):
         t = np.asarray(s["t"], float)
         t_tr, t_rot = hcs.temperatures(np.asarray(s["e_trans"], float), np.asarray(s["e_rot"], float),
                                        int(s["n_particles"]), int(s["rot_dof"]))
-        end = min(t[-1], hcs.homogeneous_until(t, np.asarray(s["count_ratio"], float), int(s["cells_per_side"]) ** 3))
+        end = min(t[-1], hcs.window_end(s))
         keep = t <= end + 1e-12
         # the collision clock: collisions per particle go as sqrt(T_tr), so c = int sqrt(T_tr / T_tr(0)) dt
         g = np.sqrt(t_tr[keep] / t_tr[0])

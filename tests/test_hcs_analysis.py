@@ -111,8 +111,21 @@ def test_flow_energy_ratio_is_one_without_correlations_and_measures_an_imposed_s
     expected = (n * (amp * sinc) ** 2 / 2 / (m ** 3 - 1) + 3 * sigma ** 2) / (3 * sigma ** 2 + amp ** 2 / 2)
     assert hcs.flow_energy_ratio(pos, sheared, box, m).mean() == pytest.approx(expected, rel=0.05)
     assert hcs.flow_energy_ratio(pos[0], vel[0], box, m) == pytest.approx(still[0])
+    # particles packed into 8 of the 64 cells, unequally: the normalisation counts occupied cells
+    packed = np.concatenate([rng.uniform(0, box / m, (6, n // 2, 3)),
+                             rng.uniform(0, box / m, (6, n // 2, 3)) + (box / m) * rng.integers(1, m, (6, n // 2, 1))
+                             * np.array([1.0, 0.0, 0.0])], axis=1)
+    packed[:, n // 2:, 1:] += (box / m) * rng.integers(0, 2, (6, n // 2, 2))
+    occupied = [len(np.unique(hcs._cells(p, box, m))) for p in packed]
+    assert all(2 < k < 16 for k in occupied)
+    few = hcs.flow_energy_ratio(packed, vel, box, m)
+    assert abs(few.mean() - 1.0) < 3 * math.sqrt(2 / (3 * (min(occupied) - 1))) / math.sqrt(6)
+    assert math.isnan(hcs.flow_energy_ratio(np.full((5, 3), 1.0), vel[0, :5], box, m))      # one cell
+    assert math.isnan(hcs.flow_energy_ratio(pos[0], np.ones((n, 3)), box, m))                # no motion
     with pytest.raises(ValueError, match="velocities"):
         hcs.flow_energy_ratio(pos, vel[:, :10], box, m)
+    with pytest.raises(ValueError, match="particles"):
+        hcs.flow_energy_ratio(pos[0, :1], vel[0, :1], box, m)
 
 
 def test_homogeneous_until_marks_the_onset_of_clustering():

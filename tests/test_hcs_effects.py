@@ -123,27 +123,60 @@ def test_the_relaxation_rows_tell_a_growing_flow_field_from_a_still_one():
     assert all(r["flow_runs"] == 0 and math.isnan(r["flow_growth"]) for r in bare)
 
 
+def _noisy(rec, rng, scale=2e-3):
+    """The record with T_rot and T_tr scattered frame by frame (relative ``scale``)."""
+    s = dict(rec["hcs"])
+    for k in ("e_trans", "e_rot"):
+        v = np.asarray(s[k])
+        s[k] = (v * (1 + scale * rng.normal(size=v.size))).tolist()
+    return dict(rec, hcs=s)
+
+
 def test_the_window_check_finds_an_effect_that_moves_with_the_window_and_none_in_the_hcs():
     """In the HCS dropping the window's first quarter moves no effect; a case whose T_rot / T_tr
-    still relaxes slowly (10 % above its value, decaying over 10 s) reads a smaller ratio effect
-    from the later window, and the check's interval says so."""
-    recs = _records({"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02})
+    still relaxes slowly (about 10 % above its value, decaying over 10 s) reads a smaller ratio
+    effect from the later window, and the check's interval says so."""
+    rng = np.random.default_rng(5)
+    recs = [_noisy(r, rng) for r in _records({"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02})]
     rows = H.window_rows(recs)
     assert len(rows) == 3 and all(r["n_pairs"] == 4 for r in rows)
     for r in rows:
-        assert abs(r["shift"]) < 2e-3, r
-        assert r["window_start"] == 5.0 and r["later_start"] == pytest.approx(5.0 + 0.25 * 35.0)
+        assert r["shift_ci_low"] <= 0.0 <= r["shift_ci_high"] and r["shift_ci_high"] - r["shift_ci_low"] < 0.01, r
+        assert r["window_start"] == 5.0 and r["later_start"] == pytest.approx(5.0 + 0.25 * 35.0) and r["drop"] == 0.25
     slow = []
     for r in recs:
         s = dict(r["hcs"])
         if r["case"] == "uncorrected":
             t = np.asarray(s["t"])
-            s["e_rot"] = (np.asarray(s["e_rot"]) * (1 + 0.1 * np.exp(-t / 10.0))).tolist()
+            amp = 0.1 * (1 + 0.3 * np.random.default_rng(r["seed"]).normal())
+            s["e_rot"] = (np.asarray(s["e_rot"]) * (1 + amp * np.exp(-t / 10.0))).tolist()
         slow.append(dict(r, hcs=s))
     ratio = next(r for r in H.window_rows(slow) if r["observable"] == "temperature_ratio")
-    assert ratio["shift_ci_high"] < 0 and -0.05 < ratio["shift"] < -0.005
+    assert ratio["shift_ci_high"] < 0 and ratio["shift_ci_low"] < ratio["shift"] < -0.005
     with pytest.raises(ValueError, match="drop"):
         H.window_rows(recs, drop=1.0)
+
+
+def test_the_window_check_starts_both_runs_of_a_seed_together_and_names_a_seed_it_leaves_out():
+    """A seed whose uncorrected run stops being homogeneous at 21 s: both its runs start their later
+    window at 5 + (21 - 5) / 4 = 9 s; a seed whose window ends 0.15 s past the transient has no
+    later window to fit, is named, and its pair leaves the shift but not hcs_effects.csv."""
+    rng = np.random.default_rng(6)
+    recs = [_noisy(r, rng) for r in _records({"cooling_rate": 0.03, "temperature_ratio": -0.05, "diffusion": 0.02})]
+
+    def ending(rec, t_end):
+        s = dict(rec["hcs"])
+        s["count_ratio"] = np.where(np.asarray(s["t"]) >= t_end, 10.0, 1.0).tolist()
+        return dict(rec, hcs=s)
+
+    recs = [ending(r, 21.0) if (r["seed"], r["case"]) == (2, "uncorrected") else r for r in recs]
+    rows = H.window_rows(recs)
+    assert rows[0]["later_start"] == pytest.approx(np.mean([5.0 + 0.25 * 35.0] * 3 + [9.0]))
+    short = [ending(r, 5.15) if (r["seed"], r["case"]) == (3, "uncorrected") else r for r in recs]
+    left = []
+    rows = H.window_rows(short, left_out=left)
+    assert all(r["n_pairs"] == 3 for r in rows) and len(left) >= 1
+    assert all(r["n_pairs"] == 4 for r in H.rows(short))
 
 
 def _with_grid(rec, d0_grid_factor):

@@ -303,6 +303,11 @@ def cooling_tables(results):
     return theory, clumps, record, predicted
 
 
+def _excludes_zero(row, name):
+    """Whether the interval ``name``_ci_low .. ``name``_ci_high of a row lies on one side of 0."""
+    return row[f"{name}_ci_high"] < 0 or row[f"{name}_ci_low"] > 0
+
+
 def cooling_checks(results):
     """The cooling estimators' checks: (rows of ``results/estimator/hcs_cooling.csv``, the bias and
     coverage on synthetic DSMC gases; rows of ``results/hcs_relaxation.csv`` whose drift interval
@@ -313,7 +318,7 @@ def cooling_checks(results):
         est.append(dict(r, covers=r["coverage_low"] <= 0.95 <= r["coverage_high"],
                         unbiased=abs(r["bias"]) <= 2 * r["bias_se"]))
     relax = _csv_rows(os.path.join(results, "hcs_relaxation.csv"))
-    moving = [r for r in relax if r["drift_ci_high"] < 0 or r["drift_ci_low"] > 0]
+    moving = [r for r in relax if _excludes_zero(r, "drift")]
     return est, moving, len(relax)
 
 
@@ -329,7 +334,7 @@ def cooling_window(results):
     """The window check of ``results/hcs_window.csv``: (its rows, those whose shift interval
     excludes 0: effects that move when each run's window starts later)."""
     rows = _csv_rows(os.path.join(results, "hcs_window.csv"))
-    return rows, [r for r in rows if r["shift_ci_high"] < 0 or r["shift_ci_low"] > 0]
+    return rows, [r for r in rows if _excludes_zero(r, "shift")]
 
 
 def cooling_maxwellian(results):
