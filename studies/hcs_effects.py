@@ -12,9 +12,9 @@ relative effect ``X_case / X_exact - 1`` of three observables:
 * ``diffusion``: D0 from the MSD from the first frame against the scaled time ln(1 + t / tau0)
   (:func:`studies.hcs.fit_scaled_msd`), at the start temperature as zeta.  Not from the
   multi-origin MSD grid (:func:`studies.hcs.fit_scaled_msd_grid`): in the frictional clump gases
-  a particle's velocity remembers itself for 0.1-0.3 in s (the first-frame fit's intercept over
-  its slope), as long as the grid's shortest lag, so the grid's D0 grows with that lag and its
-  bias differs between cases (``docs/hcs.md``).
+  a particle's velocity remembers itself (the first-frame fit's intercept over its slope) about as
+  long as the grid's shortest lag, so the grid's D0 grows with that lag and its bias differs
+  between cases (``docs/hcs.md``).
 
 The interval is Student-t over the seeds' relative effects (:func:`studies.intervals.t_interval`).
 The bias and coverage of these estimators on synthetic cooling gases with a known answer:
