@@ -32,7 +32,7 @@ import sys
 import numpy as np
 
 from . import hcs
-from .effects import _pair_facts, case_errors, shape_name
+from .effects import _pair_key, case_errors, shape_name
 from .intervals import t_interval
 
 COLUMNS = ("shape", "n_spheres", "youngs_modulus", "restitution", "friction", "protocol", "case", "observable",
@@ -90,7 +90,7 @@ def paired(records, t_transient=T_TRANSIENT, left_out=None):
     groups = {}
     for rec in records:
         p = rec["params"]
-        key = json.dumps(_pair_facts(p), sort_keys=True)
+        key = _pair_key(p)
         groups.setdefault((key, rec["seed"]), {})[rec["case"]] = rec
     out = {}
     for (key, seed), cases in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1])):
@@ -260,7 +260,7 @@ def relaxation_rows(records, t_transient=T_TRANSIENT):
     groups = {}
     for rec in records:
         p = rec["params"]
-        key = (json.dumps(_pair_facts(p), sort_keys=True), rec["case"])
+        key = (_pair_key(p), rec["case"])
         g = groups.setdefault(key, {"params": p, "case": rec["case"], "vals": [], "flow": []})
         g["vals"].append(ratio_drift(rec["hcs"], t_transient))
         g["flow"].append(flow_growth(rec["hcs"], t_transient))
@@ -322,11 +322,12 @@ def window_rows(records, t_transient=T_TRANSIENT, drop=WINDOW_DROP, left_out=Non
         raise ValueError(f"drop must lie in (0, 1), got {drop}")
 
     def seed_key(rec):
-        return json.dumps(_pair_facts(rec["params"]), sort_keys=True), rec["seed"]
+        return _pair_key(rec["params"]), rec["seed"]
 
     ends = {}
     for rec in records:
-        ends[seed_key(rec)] = min(ends.get(seed_key(rec), math.inf), hcs.window_end(rec["hcs"]))
+        k = seed_key(rec)
+        ends[k] = min(ends.get(k, math.inf), hcs.window_end(rec["hcs"]))
     whole = paired(records, t_transient)
     cut = paired(records, lambda rec: later_start(t_transient, ends[seed_key(rec)], drop), left_out)
     out = []
