@@ -21,6 +21,7 @@ The studies beside the gas sweeps, each with its own options (``python -m studie
     case-map              each case's effect on D from binary collisions (results/collision_map/)
     hcs-validation        cooling sphere gases against kinetic theory (results/hcs_theory.csv)
     hcs-effects           each case's effect on cooling clump gases (results/hcs_effects.csv)
+    hcs-settling          each case's effect on cooling clump gases, bin by bin of scaled time (results/hcs_settling.csv)
     hcs-estimator         the cooling estimators' bias and coverage on DSMC gases (results/estimator/)
     law                   the effect as a formula in the mass and k^2 errors, checked on the gas (results/law.csv)
     gk-sensitivity        D of committed runs under other Green-Kubo truncations and tail fits (printed)
@@ -55,7 +56,7 @@ STUDIES = {"timestep": ".timestep.study", "case-map": ".maps", "gk-sensitivity":
            "gk-boltzmann": ".gk_boltzmann", "vacf-shape": ".vacf_shape",
            "estimator-validation": ".estimator_validation", "pair-correlation": ".pair_correlation", "predict": ".predict",
            "hcs-validation": ".hcs_validation", "hcs-effects": ".hcs_effects", "law": ".law",
-           "hcs-estimator": ".hcs_estimator"}
+           "hcs-estimator": ".hcs_estimator", "hcs-settling": ".hcs_settling"}
 
 
 def _sweep(a, spec):

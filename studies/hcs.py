@@ -561,6 +561,16 @@ def analyse_series(s, t_transient=0.0, fit_from=0.0):
 CLUMP_TRANSIENT = 5.0
 
 
+def energy_tau0(series, t_transient=CLUMP_TRANSIENT):
+    """Haff's tau0 (s) of a run from its total kinetic energy, between ``t_transient`` and the end
+    of its homogeneous window (:func:`window_end`).  The total, not T_tr: only the collisions'
+    dissipation changes it (T_tr also trades energy with rotation), and in the HCS both decay at
+    one rate."""
+    t = np.asarray(series["t"], float)
+    e = np.asarray(series["e_trans"], float) + np.asarray(series["e_rot"], float)
+    return fit_haff(t, e, t_transient, window_end(series))["tau0"]
+
+
 def effect_observables(series, t_transient=CLUMP_TRANSIENT):
     """The observables whose case / exact ratios are a clump case's effect in the HCS
     (:mod:`studies.hcs_effects`, and the sequential design of cooling groups, :mod:`studies.design`).
@@ -583,9 +593,7 @@ def effect_observables(series, t_transient=CLUMP_TRANSIENT):
     t, e_tr, e_rot = (np.asarray(series[k], float) for k in ("t", "e_trans", "e_rot"))
     t_tr, _ = temperatures(e_tr, e_rot, int(series["n_particles"]), int(series["rot_dof"]))
     t_hom = a["t_end_homogeneous"]
-    # Haff's time from the total kinetic energy, which only the collisions' dissipation changes (T_tr
-    # alone also trades energy with rotation): in the HCS both decay at one rate
-    tau0 = fit_haff(t, e_tr + e_rot, t_transient, t_hom)["tau0"]
+    tau0 = energy_tau0(series, t_transient)
     # zeta and D of a cooling gas scale as sqrt(T_tr): both at the start temperature, which every case
     # of a paired seed shares (per unit mass), not at the fit's T0, which the transient moves
     scale = math.sqrt(t_tr[0] / haff_amplitude(t, t_tr, tau0, t_transient, t_hom))

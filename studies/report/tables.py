@@ -337,6 +337,33 @@ def cooling_window(results):
     return rows, [r for r in rows if _excludes_zero(r, "shift")]
 
 
+def cooling_settling(results, early_from=0.4):
+    """The frictional T_rot / T_tr rows of ``results/hcs_settling.csv``, one dict per (study, shape,
+    case): its bins (``s_low`` order), ``early`` (the first bin from s = ``early_from``, past the
+    effect rows' 5 s transient in every frictional group), ``late`` (the last bin), ``apart`` (their
+    intervals do not overlap: the effect still moves between them) and ``predicted`` (the
+    predictor's stationary value from ``predictions.csv``, or None)."""
+    rows = [r for r in _csv_rows(os.path.join(results, "hcs_settling.csv"))
+            if r["friction"] > 0 and r["observable"] == "temperature_ratio"]
+    preds = {(p["shape"], float(p["restitution"]), float(p["friction"]), str(p["case"]).partition("/")[0]):
+             float(p["predicted"]) for p in _csv_rows(os.path.join(results, "predictions.csv"))
+             if p["observable"] == "temperature_ratio"}
+    out = []
+    for key in sorted({(r["study"], r["shape"], r["restitution"], r["friction"], r["case"]) for r in rows}):
+        bins = sorted((r for r in rows if (r["study"], r["shape"], r["restitution"], r["friction"], r["case"]) == key),
+                      key=lambda r: r["s_low"])
+        early = next((b for b in bins if b["s_low"] >= early_from - 1e-9), None)
+        late = bins[-1]
+        if early is None or early is late:
+            continue
+        out.append({"study": key[0], "shape": key[1], "friction": key[3], "case": key[4], "bins": bins,
+                    "early": early, "late": late,
+                    "apart": late["relative_ci_high"] < early["relative_ci_low"]
+                    or late["relative_ci_low"] > early["relative_ci_high"],
+                    "predicted": preds.get((key[1], key[2], key[3], key[4]))})
+    return out
+
+
 def cooling_maxwellian(results):
     """Rows of ``results/estimator/hcs_maxwellian.csv``: each relative effect of the synthetic
     gases in the DSMC and in the Maxwellian approximation the predictor uses, with ``agrees``
