@@ -14,10 +14,15 @@ run's s, its tau0 from Haff's fit to its total kinetic energy past the transient
   temperature, since in the HCS it scales as sqrt(T_tr) (the Haff rate of
   :func:`studies.hcs.effect_observables`, bin by bin).
 
-The per-seed relative effect ``X_case / X_exact - 1`` of each bin that both runs cover within
-their homogeneous windows (:func:`studies.hcs.window_end`) goes into a Student-t interval over the
-seeds (:func:`studies.intervals.t_interval`), as in ``hcs_effects.csv``.  In the HCS every bin's
-effect is the same; a trend over the bins is a relaxation the effect rows' window does not hold.
+For Haff's law the bin rate reads (2 / tau0)(1 - w^2 / 30) for a bin w wide in s wherever it lies
+(the slope weights the rate parabolically over the bin, the denominator uniformly); the factor
+cancels in a pair's ratio.  The per-seed relative effect ``X_case / X_exact - 1`` of each bin that
+both runs cover within their homogeneous windows (:func:`studies.hcs.window_end`) goes into a
+Student-t interval over the seeds (:func:`studies.intervals.t_interval`), as in
+``hcs_effects.csv``.  In the HCS every bin's effect is the same.  Whether it still moves is asked
+seed by seed: each later bin's effect minus that of the reference bin, the first bin that starts
+past the effect rows' transient in every seed (``t_low``, the bin's earliest start over the seeds),
+Student-t over the seeds in both (``change`` columns).
 
     .venv/bin/python -m studies hcs-settling                     # hcs_settling and hcs_clumps
     .venv/bin/python -m studies hcs-settling hcs_settling --width 0.25
@@ -36,7 +41,8 @@ from .hcs_effects import T_TRANSIENT, load_records, write_csv
 from .intervals import t_interval
 
 COLUMNS = ("study", "shape", "n_spheres", "restitution", "friction", "cooling_stop", "case", "observable",
-           "s_low", "s_high", "n_pairs", "relative", "relative_ci_low", "relative_ci_high")
+           "s_low", "s_high", "t_low", "n_pairs", "relative", "relative_ci_low", "relative_ci_high", "reference_s",
+           "change", "change_ci_low", "change_ci_high", "change_pairs")
 OBSERVABLES = ("cooling_rate", "temperature_ratio")
 WIDTH = 0.2          # a bin's width in scaled time s
 MIN_FRAMES = 5       # frames a bin needs in a run for a slope
@@ -86,7 +92,7 @@ def bin_values(series, mask):
     return {"cooling_rate": float(-slope / np.mean(np.sqrt(t_tr[mask] / t_tr[0]))), "temperature_ratio": ratio}
 
 
-def rows(records, study="", width=WIDTH, t_transient=T_TRANSIENT):
+def rows(records, study="", width=WIDTH, t_transient=T_TRANSIENT, left_out=None):
     """Rows of ``results/hcs_settling.csv`` (columns :data:`COLUMNS`) from one study's records.
 
     Parameters
@@ -98,7 +104,10 @@ def rows(records, study="", width=WIDTH, t_transient=T_TRANSIENT):
     width : float, optional
         The bins' width in scaled time; the bins start at s = 0.
     t_transient : float, optional
-        As :func:`scaled_time`.
+        As :func:`scaled_time`; also where the reference bin starts (:func:`_changes`).
+    left_out : list, optional
+        Gets ``(run name, reason)`` for each exact run whose tau0 cannot be fitted (its seed gives no
+        bin) and each bin a run holds too few frames for (that bin of that pair is left out).
 
     Returns
     -------
@@ -107,56 +116,95 @@ def rows(records, study="", width=WIDTH, t_transient=T_TRANSIENT):
     """
     if not width > 0:
         raise ValueError(f"width: expected a positive bin width in scaled time, got {width!r}")
+    note = (lambda name, why: left_out.append((name, why))) if left_out is not None else (lambda name, why: None)
     seeds = {}
     for rec in records:
         seeds.setdefault((_pair_key(rec["params"]), rec["seed"]), {})[rec["case"]] = rec
-    per = {}          # (pair key, case, observable, bin) -> per-seed relative effects
+    per = {}          # (pair key, case, observable) -> {bin: {seed: relative effect}}
+    starts = {}       # (pair key, case) -> {bin: [the bin's first frame time in each seed]}
     params = {}
-    for (key, _), cases in sorted(seeds.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+    for (key, seed), cases in sorted(seeds.items(), key=lambda kv: (kv[0][0], kv[0][1])):
         ex = cases.get("exact")
         if ex is None or len(cases) < 2:
             continue
         t = np.asarray(ex["hcs"]["t"], float)
         try:
             s = scaled_time(ex["hcs"], t_transient)
-        except ValueError:
+        except ValueError as e:
+            note(ex.get("name", "?"), f"no Haff fit for its scaled time: {e}")
+            continue
+        if not np.all(np.isfinite(s)):
+            note(ex.get("name", "?"), "its Haff fit gives no finite scaled time")
             continue
         for case, rec in cases.items():
             if case == "exact":
                 continue
             params[(key, case)] = rec["params"]
             t_case = np.asarray(rec["hcs"]["t"], float)
+            # both runs homogeneous to the bin's end: each run's own window, on the exact run's clock
             t_end = min(hcs.window_end(ex["hcs"]), hcs.window_end(rec["hcs"]), t[-1], t_case[-1])
             s_end = float(np.interp(t_end, t, s))
+            if s_end < width:
+                note(rec.get("name", "?"), f"its pair's window reaches s = {s_end:.3g}, short of a whole bin")
             for b in range(int(math.floor(s_end / width + 1e-9))):
-                lo_s, hi_s = b * width, (b + 1) * width
-                m_ex = (s >= lo_s) & (s < hi_s)
+                m_ex = (s >= b * width) & (s < (b + 1) * width)
                 if int(np.count_nonzero(m_ex)) < MIN_FRAMES:
+                    note(ex.get("name", "?"), f"s {b * width:g}-{(b + 1) * width:g} holds fewer than {MIN_FRAMES} frames")
                     continue
                 t_lo, t_hi = t[m_ex][0], t[m_ex][-1]
                 m_case = (t_case >= t_lo - 1e-9) & (t_case <= t_hi + 1e-9)
-                try:
-                    v_ex, v_case = bin_values(ex["hcs"], m_ex), bin_values(rec["hcs"], m_case)
-                except ValueError:
+                if int(np.count_nonzero(m_case)) < MIN_FRAMES:
+                    note(rec.get("name", "?"), f"s {b * width:g}-{(b + 1) * width:g} holds fewer than {MIN_FRAMES} frames")
                     continue
+                v_ex, v_case = bin_values(ex["hcs"], m_ex), bin_values(rec["hcs"], m_case)
+                starts.setdefault((key, case), {}).setdefault(b, []).append(float(t_lo))
                 for o in OBSERVABLES:
                     if math.isfinite(v_ex[o]) and math.isfinite(v_case[o]):
-                        per.setdefault((key, case, o, b), []).append(v_case[o] / v_ex[o] - 1.0)
+                        per.setdefault((key, case, o), {}).setdefault(b, {})[seed] = v_case[o] / v_ex[o] - 1.0
     out = []
-    for (key, case, o, b), vals in per.items():
-        if len(vals) < 2:
-            continue
+    for (key, case, o), bins in per.items():
         p = params[(key, case)]
         mat = p["material"]
-        m, lo, hi, _, n = t_interval(vals)
-        out.append({"study": study, "shape": shape_name(p["shape"]["definition"]),
-                    "n_spheres": len(p["shape"]["radii"]), "restitution": float(mat.get("restitution", 1.0)),
-                    "friction": float(mat.get("friction", 0.0)), "cooling_stop": float(p["run"]["cooling_stop"]),
-                    "case": case, "observable": o, "s_low": b * width, "s_high": (b + 1) * width, "n_pairs": n,
-                    "relative": m, "relative_ci_low": lo, "relative_ci_high": hi})
+        t_low = {b: min(ts) for b, ts in starts[(key, case)].items()}
+        ref, changes = _changes(bins, t_low, t_transient)
+        for b, by_seed in sorted(bins.items()):
+            if len(by_seed) < 2:
+                continue
+            m, lo, hi, _, n = t_interval(list(by_seed.values()))
+            out.append({"study": study, "shape": shape_name(p["shape"]["definition"]),
+                        "n_spheres": len(p["shape"]["radii"]), "restitution": float(mat.get("restitution", 1.0)),
+                        "friction": float(mat.get("friction", 0.0)), "cooling_stop": float(p["run"]["cooling_stop"]),
+                        "case": case, "observable": o, "s_low": b * width, "s_high": (b + 1) * width,
+                        "t_low": t_low[b], "n_pairs": n, "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
+                        "reference_s": None if ref is None else ref * width,
+                        **changes.get(b, {"change": None, "change_ci_low": None, "change_ci_high": None,
+                                          "change_pairs": None})})
     out.sort(key=lambda r: (r["study"], r["shape"], r["friction"], r["case"], OBSERVABLES.index(r["observable"]),
                             r["s_low"]))
     return out
+
+
+def _changes(bins, t_low, t_transient):
+    """The reference bin, the first that starts past ``t_transient`` in every seed (``t_low``: a bin's
+    earliest start over the seeds), and each later bin's change from it: per seed present in both,
+    the bin's effect minus the reference's, Student-t over those seeds (two or more).
+
+    Returns
+    -------
+    tuple
+        (reference bin index or None, {bin: {change, change_ci_low, change_ci_high, change_pairs}}).
+    """
+    after = [b for b in sorted(bins) if t_low[b] >= t_transient - 1e-9 and len(bins[b]) >= 2]
+    if not after:
+        return None, {}
+    ref = after[0]
+    out = {}
+    for b in after[1:]:
+        both = [bins[b][sd] - bins[ref][sd] for sd in bins[b] if sd in bins[ref]]
+        if len(both) >= 2:
+            m, lo, hi, _, n = t_interval(both)
+            out[b] = {"change": m, "change_ci_low": lo, "change_ci_high": hi, "change_pairs": n}
+    return ref, out
 
 
 def _predictions(path):
@@ -250,10 +298,12 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if not a.width > 0:
         ap.error(f"--width {a.width:g}: expected a positive bin width")
-    out = []
+    out, left_out = [], []
     for name in a.specs:
         spec = S.load(name if os.path.exists(name) else os.path.join(S.SPEC_DIR, name + ".toml"))
-        out += rows(load_records(S.results_dir(spec)), spec["study"]["name"], a.width, a.t_transient)
+        out += rows(load_records(S.results_dir(spec)), spec["study"]["name"], a.width, a.t_transient, left_out)
+    for name, why in left_out:
+        print(f"[hcs-settling] left out of its bins: {name}: {why}", file=sys.stderr)
     if not out:
         print(f"[hcs-settling] no bin with two paired seeds in {', '.join(a.specs)}", file=sys.stderr)
         return 1

@@ -124,31 +124,35 @@ def test_the_maxwellian_check_marks_differences_beyond_twice_their_error(tmp_pat
 
 
 def test_the_settling_paragraph_names_effects_that_still_move_after_the_transient(tmp_path):
-    def row(study, case, s_low, rel, obs="temperature_ratio", mu=0.5):
+    def row(study, case, s_low, rel, change=None, obs="temperature_ratio", mu=0.5, ref=0.4):
         return {"study": study, "shape": "tetrahedron", "n_spheres": 4, "restitution": 0.9, "friction": mu,
                 "cooling_stop": 16, "case": case, "observable": obs, "s_low": s_low, "s_high": s_low + 0.2,
-                "n_pairs": 6, "relative": rel, "relative_ci_low": rel - 0.01, "relative_ci_high": rel + 0.01}
-    rows = ([row("hcs_clumps", "uncorrected", s, r) for s, r in ((0.0, -0.01), (0.2, -0.03), (0.4, -0.04),
-                                                                  (0.6, -0.05), (0.8, -0.07))]
-            + [row("hcs_clumps", "mass_only", s, 0.05) for s in (0.2, 0.4, 0.6)]
-            + [row("hcs_clumps", "uncorrected", s, 0.5, obs="cooling_rate") for s in (0.4, 0.6)]
-            + [row("hcs_clumps", "uncorrected", s, 0.5, mu=0.0) for s in (0.4, 0.6)]
-            + [row("hcs_settling", "uncorrected", s, -0.05) for s in (0.2, 0.4)])
+                "t_low": 12 * s_low, "n_pairs": 6, "relative": rel, "relative_ci_low": rel - 0.01,
+                "relative_ci_high": rel + 0.01, "reference_s": ref,
+                "change": change, "change_ci_low": None if change is None else change - 0.015,
+                "change_ci_high": None if change is None else change + 0.015, "change_pairs": None if change is None else 5}
+    rows = ([row("hcs_clumps", "uncorrected", s, r, c) for s, r, c in ((0.0, -0.01, None), (0.2, -0.03, None),
+                                                                        (0.4, -0.04, None), (0.6, -0.05, -0.01),
+                                                                        (0.8, -0.07, -0.03))]
+            + [row("hcs_clumps", "mass_only", s, 0.05, c) for s, c in ((0.2, None), (0.4, None), (0.6, 0.002))]
+            + [row("hcs_clumps", "uncorrected", s, 0.5, c, obs="cooling_rate") for s, c in ((0.4, None), (0.6, 0.1))]
+            + [row("hcs_clumps", "uncorrected", s, 0.5, c, mu=0.0) for s, c in ((0.4, None), (0.6, 0.1))]
+            + [row("hcs_settling", "uncorrected", s, -0.05, None, ref=None) for s in (0.2, 0.4)])
     _write(tmp_path / "hcs_settling.csv", rows)
     _write(tmp_path / "predictions.csv", [_pred("tetrahedron", "uncorrected", "temperature_ratio", -0.054, 0.009)])
     got = tables.cooling_settling(str(tmp_path))
-    # the smooth gas, the cooling rate and a study with no bin after s = 0.4 but the first are left out
-    assert [(r["study"], r["case"], r["apart"]) for r in got] == [("hcs_clumps", "mass_only", False),
+    # the smooth gas, the cooling rate and a study with no change past its reference are left out
+    assert [(r["study"], r["case"], r["moved"]) for r in got] == [("hcs_clumps", "mass_only", False),
                                                                    ("hcs_clumps", "uncorrected", True)]
     unc = got[1]
     assert (unc["early"]["s_low"], unc["late"]["s_low"], unc["predicted"]) == (0.4, 0.8, -0.054)
-    assert got[0]["predicted"] is None
+    assert got[0]["predicted"] is None and abs(got[0]["bound"] - 0.017) < 1e-12
     _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035)])
     _, clumps, _, _ = tables.cooling_tables(str(tmp_path))
     text = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], settling=got)
-    assert ("hcs_clumps tetrahedron uncorrected from -4.0 % [-5.0, -3.0] % to -7.0 % [-8.0, -6.0] % at s 0.8-1.0 "
-            "(predicted -5.4 %)") in text
-    assert "In 1 of 2 the two intervals do not overlap (hcs_clumps tetrahedron uncorrected)" in text
+    assert ("hcs_clumps tetrahedron uncorrected from -4.0 % (s 0.4-0.6) to -7.0 % (s 0.8-1.0), a change of "
+            "-3.0 pp [-4.5, -1.5] over 5 seeds (predicted -5.4 %)") in text
+    assert "In 1 of 2 the change's interval excludes 0 (hcs_clumps tetrahedron uncorrected)" in text
     assert "over the runs of `hcs_clumps`." in text and "hcs_settling.png" in text
     calm = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], settling=got[:1])
-    assert "In none of them do the two intervals lie apart" in calm
+    assert "In none of them does the change's interval exclude 0; changes up to about ±2 pp are not excluded." in calm

@@ -337,12 +337,13 @@ def cooling_window(results):
     return rows, [r for r in rows if _excludes_zero(r, "shift")]
 
 
-def cooling_settling(results, early_from=0.4):
+def cooling_settling(results):
     """The frictional T_rot / T_tr rows of ``results/hcs_settling.csv``, one dict per (study, shape,
-    case): its bins (``s_low`` order), ``early`` (the first bin from s = ``early_from``, past the
-    effect rows' 5 s transient in every frictional group), ``late`` (the last bin), ``apart`` (their
-    intervals do not overlap: the effect still moves between them) and ``predicted`` (the
-    predictor's stationary value from ``predictions.csv``, or None)."""
+    case) with a reference bin (the first past the effect rows' transient in every seed) and a later
+    bin: its bins (``s_low`` order), ``early`` (the reference bin), ``late`` (the last bin with a
+    change), ``moved`` (the late bin's change from the reference, per seed and Student-t over the
+    seeds in both, excludes 0), ``bound`` (the largest change its interval allows, either sign) and ``predicted`` (the predictor's stationary value from
+    ``predictions.csv``, or None)."""
     rows = [r for r in _csv_rows(os.path.join(results, "hcs_settling.csv"))
             if r["friction"] > 0 and r["observable"] == "temperature_ratio"]
     preds = {(p["shape"], float(p["restitution"]), float(p["friction"]), str(p["case"]).partition("/")[0]):
@@ -352,14 +353,14 @@ def cooling_settling(results, early_from=0.4):
     for key in sorted({(r["study"], r["shape"], r["restitution"], r["friction"], r["case"]) for r in rows}):
         bins = sorted((r for r in rows if (r["study"], r["shape"], r["restitution"], r["friction"], r["case"]) == key),
                       key=lambda r: r["s_low"])
-        early = next((b for b in bins if b["s_low"] >= early_from - 1e-9), None)
-        late = bins[-1]
-        if early is None or early is late:
+        changed = [b for b in bins if not pd.isna(b["change"])]
+        if not changed:
             continue
+        late = changed[-1]
+        early = next(b for b in bins if abs(b["s_low"] - late["reference_s"]) < 1e-9)
         out.append({"study": key[0], "shape": key[1], "friction": key[3], "case": key[4], "bins": bins,
-                    "early": early, "late": late,
-                    "apart": late["relative_ci_high"] < early["relative_ci_low"]
-                    or late["relative_ci_low"] > early["relative_ci_high"],
+                    "early": early, "late": late, "moved": _excludes_zero(late, "change"),
+                    "bound": max(abs(late["change_ci_low"]), abs(late["change_ci_high"])),
                     "predicted": preds.get((key[1], key[2], key[3], key[4]))})
     return out
 
