@@ -191,3 +191,22 @@ def test_the_command_writes_the_fixed_columns_from_the_committed_runs(tmp_path):
             assert float(r["s_low"]) > float(r["reference_s"]) and int(r["change_pairs"]) >= 2
     with pytest.raises(SystemExit):
         HS.main(["hcs_clumps", "--width", "0", "--out", str(out)])
+
+
+def test_the_settling_runs_repeat_the_clump_runs_of_their_seeds_frame_by_frame():
+    """hcs_settling's runs are hcs_clumps' frictional runs of the same seeds and starts, run on to a
+    64-fold fall: one-threaded YADE repeats a run exactly, so up to the shorter run's stop both
+    records hold the same energies and MSD, and the longer run goes on past it."""
+    from studies.effects import shape_name
+    from studies.hcs_effects import load_records
+
+    clumps = {(shape_name(r["params"]["shape"]["definition"]), r["case"], r["seed"], r["params"]["material"].get("friction")): r
+              for r in load_records(S.results_dir(S.load(f"{S.SPEC_DIR}/hcs_clumps.toml")))}
+    long_runs = load_records(S.results_dir(S.load(f"{S.SPEC_DIR}/hcs_settling.toml")))
+    assert len(long_runs) >= 8
+    for r in long_runs:
+        short = clumps[(shape_name(r["params"]["shape"]["definition"]), r["case"], r["seed"], 0.5)]
+        n = len(short["hcs"]["t"])
+        assert len(r["hcs"]["t"]) > 1.5 * n
+        for q in ("t", "e_trans", "e_rot", "msd"):
+            assert r["hcs"][q][:n] == short["hcs"][q][:n], (r["name"], q)
