@@ -136,6 +136,32 @@ def test_run_map_never_reuses_another_inputs_output(tmp_path):
     assert not (tmp_path / "x-E1e+07-f0.5.out.json").exists()
 
 
+def test_run_map_reuses_a_run_whose_input_differs_only_by_round_off(tmp_path):
+    """The same run's input built twice can differ in the last bits of a sum over member spheres
+    (numpy's summation order): a relative 1e-15 is one run and is reused; 1e-9 is another run, and
+    the stored output is removed before it runs (here it then fails: no such YADE)."""
+    inp = _head_on()
+    d = dict(inp, dt=0.5 * tc.p_wave_dt_of_body(inp))
+    (tmp_path / "x-E1e+07-f0.5.in.json").write_text(json.dumps(d))
+    (tmp_path / "x-E1e+07-f0.5.out.json").write_text(json.dumps({"stored": True}))
+    nudged = json.loads(json.dumps(inp))
+    nudged["body"]["mass"] *= 1 + 1e-15
+    assert tc.run_map(nudged, 0.5, "1999.1", str(tmp_path), "x") == {"stored": True, "reused": True}
+    nudged["body"]["mass"] *= 1 + 1e-9
+    with pytest.raises(RuntimeError, match="no YADE"):
+        tc.run_map(nudged, 0.5, "1999.1", str(tmp_path), "x")
+    assert not (tmp_path / "x-E1e+07-f0.5.out.json").exists()
+
+
+def test_same_input_compares_numbers_to_round_off_and_everything_else_exactly():
+    a = {"m": 1.0, "v": [0.0, 2.5, 1e-300], "n": 3, "route": "aspherical"}
+    assert tc.same_input(a, {"m": 1.0 + 2e-16, "v": [1e-17, 2.5 * (1 + 1e-14), 0.0], "n": 3, "route": "aspherical"})
+    for other in ({"m": 1.0 + 1e-9, "v": a["v"], "n": 3, "route": "aspherical"},   # a number beyond round-off
+                  dict(a, n=4), dict(a, route="isotropic"), dict(a, v=[0.0, 2.5]),  # an integer, a string, a length
+                  {k: v for k, v in a.items() if k != "n"}, dict(a, n=3.0 + 1e-9), dict(a, m=True)):
+        assert not tc.same_input(a, other), other
+
+
 def _without(argv, *options):
     """``argv`` without the given options and their values."""
     out, skip = [], False
