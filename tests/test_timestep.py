@@ -137,8 +137,8 @@ def test_run_map_never_reuses_another_inputs_output(tmp_path):
 
 
 def test_run_map_reuses_a_run_whose_input_differs_only_by_round_off(tmp_path):
-    """The same run's input built twice can differ in the last bits of a sum over member spheres
-    (numpy's summation order): a relative 1e-15 is one run and is reused; 1e-9 is another run, and
+    """The same run's input built twice can differ in its last bits (a matrix product under one-threaded
+    and multi-threaded BLAS): a relative 1e-15 is one run and is reused; 1e-9 is another run, and
     the stored output is removed before it runs (here it then fails: no such YADE)."""
     inp = _head_on()
     d = dict(inp, dt=0.5 * tc.p_wave_dt_of_body(inp))

@@ -123,8 +123,8 @@ def native_yade_version():
     return (out.stdout.strip().splitlines() or [""])[-1]
 
 
-# how far two run inputs' numbers may differ and still be one run: the round-off of a sum over member
-# spheres differs between numpy's code paths (threads, summation order) by ~1e-16 relative
+# how far two run inputs' numbers may differ and still be one run: a matrix product's round-off (the
+# spins turned into the lab frame) differs between one-threaded and multi-threaded BLAS by ~1e-16
 SAME_RTOL = 1e-12
 
 
