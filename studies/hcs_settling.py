@@ -36,8 +36,8 @@ import sys
 import numpy as np
 
 from . import hcs
-from .effects import _pair_key, shape_name
-from .hcs_effects import T_TRANSIENT, load_records, write_csv
+from .effects import _pair_key
+from .hcs_effects import T_TRANSIENT, _group_fields, load_records, write_csv
 from .intervals import t_interval
 
 COLUMNS = ("study", "shape", "n_spheres", "restitution", "friction", "cooling_stop", "case", "observable",
@@ -164,16 +164,13 @@ def rows(records, study="", width=WIDTH, t_transient=T_TRANSIENT, left_out=None)
     out = []
     for (key, case, o), bins in per.items():
         p = params[(key, case)]
-        mat = p["material"]
         t_low = {b: min(ts) for b, ts in starts[(key, case)].items()}
         ref, changes = _changes(bins, t_low, t_transient)
         for b, by_seed in sorted(bins.items()):
             if len(by_seed) < 2:
                 continue
             m, lo, hi, _, n = t_interval(list(by_seed.values()))
-            out.append({"study": study, "shape": shape_name(p["shape"]["definition"]),
-                        "n_spheres": len(p["shape"]["radii"]), "restitution": float(mat.get("restitution", 1.0)),
-                        "friction": float(mat.get("friction", 0.0)), "cooling_stop": float(p["run"]["cooling_stop"]),
+            out.append({"study": study, **_group_fields(p), "cooling_stop": float(p["run"]["cooling_stop"]),
                         "case": case, "observable": o, "s_low": b * width, "s_high": (b + 1) * width,
                         "t_low": t_low[b], "n_pairs": n, "relative": m, "relative_ci_low": lo, "relative_ci_high": hi,
                         "reference_s": None if ref is None else ref * width,
