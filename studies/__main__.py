@@ -44,13 +44,6 @@ import time
 from . import spec as S
 
 
-def _spec_path(name):
-    if os.path.exists(name):
-        return name
-    p = os.path.join(S.SPEC_DIR, name if name.endswith(".toml") else name + ".toml")
-    return p if os.path.exists(p) else name
-
-
 # python -m studies NAME ...: the module whose main(argv) runs study NAME
 STUDIES = {"timestep": ".timestep.study", "case-map": ".maps", "gk-sensitivity": ".gk_sensitivity",
            "gk-boltzmann": ".gk_boltzmann", "vacf-shape": ".vacf_shape",
@@ -98,7 +91,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None, help="prepare: directory for run files")
     a = ap.parse_args(argv)
     try:
-        spec = S.load(_spec_path(a.spec))
+        spec = S.load(S.spec_path(a.spec))
     except S.SpecError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

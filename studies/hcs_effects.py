@@ -408,7 +408,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     records = []
     for name in a.specs:
-        spec = S.load(name if os.path.exists(name) else os.path.join(S.SPEC_DIR, name + ".toml"))
+        spec = S.load(S.spec_path(name))
         records += load_records(os.path.join(S.ROOT, spec["study"]["results"]))
     left_out = []
     out = rows(records, a.t_transient, left_out)

@@ -297,7 +297,7 @@ def main(argv=None):
         ap.error(f"--width {a.width:g}: expected a positive bin width")
     out, left_out = [], []
     for name in a.specs:
-        spec = S.load(name if os.path.exists(name) else os.path.join(S.SPEC_DIR, name + ".toml"))
+        spec = S.load(S.spec_path(name))
         out += rows(load_records(S.results_dir(spec)), spec["study"]["name"], a.width, a.t_transient, left_out)
     for name, why in left_out:
         print(f"[hcs-settling] left out of its bins: {name}: {why}", file=sys.stderr)

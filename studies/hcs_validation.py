@@ -264,7 +264,7 @@ def main(argv=None):
                     help="frames before it are left out of the T_rot / T_tr average (default: 10 s)")
     ap.add_argument("--out", default=os.path.join(S.ROOT, "results", "hcs_theory.csv"))
     a = ap.parse_args(argv)
-    spec = S.load(a.spec if os.path.exists(a.spec) else os.path.join(S.SPEC_DIR, a.spec + ".toml"))
+    spec = S.load(S.spec_path(a.spec))
     runs = load_records(os.path.join(S.ROOT, spec["study"]["results"]))
     if not runs:
         print(f"[hcs-validation] no cooling-run records in {spec['study']['results']}/runs", file=sys.stderr)

@@ -295,8 +295,7 @@ def _parser():
 
 def _load(name):
     from . import spec as S
-    from .__main__ import _spec_path
-    return S.load(_spec_path(name))
+    return S.load(S.spec_path(name))
 
 
 def _set_material(spec, law):

@@ -113,6 +113,26 @@ def results_dir(spec):
     return d if os.path.isabs(d) else os.path.join(ROOT, d)
 
 
+def spec_path(name):
+    """The spec file a command-line argument names: ``name`` itself where that file exists, else
+    ``studies/specs/NAME.toml`` (``.toml`` optional); ``name`` unchanged where neither exists, so
+    :func:`load` reports the missing file.
+
+    Parameters
+    ----------
+    name : str
+        A path, or the name of a committed spec.
+
+    Returns
+    -------
+    str
+    """
+    if os.path.exists(name):
+        return name
+    p = os.path.join(SPEC_DIR, name if name.endswith(".toml") else name + ".toml")
+    return p if os.path.exists(p) else name
+
+
 def load(path):
     """Read and validate a spec file; returns the validated spec dict (with ``path``)."""
     try:

@@ -765,3 +765,16 @@ def test_touching_spheres_are_one_body_and_a_sensitivity_window_must_fit_the_run
     assert S.validate(r)["shapes"]["dimer"]["overlap"] == 1.0
     msg = _bad(lambda r: r["analysis"].update(sensitivity=[[399.9, 5.0, 9.0]]))
     assert "analysis.sensitivity = 399.9 s is too close to the end of the run" in msg, msg
+
+
+def test_a_spec_argument_is_a_file_where_one_exists_else_a_committed_spec_name(tmp_path, monkeypatch):
+    own = tmp_path / "paper.toml"
+    own.write_text("")
+    assert S.spec_path(str(own)) == str(own)                      # a file beats the committed spec
+    for arg in ("paper", "paper.toml"):
+        assert S.spec_path(arg) == str(SPECS / "paper.toml")
+    monkeypatch.chdir(tmp_path)
+    assert S.spec_path("paper.toml") == "paper.toml"              # ./paper.toml exists here
+    assert S.spec_path("no_such_spec") == "no_such_spec"          # load() then names the missing file
+    with pytest.raises(S.SpecError, match="no_such_spec"):
+        S.load(S.spec_path("no_such_spec"))
