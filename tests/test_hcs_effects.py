@@ -5,7 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from studies import hcs, hcs_effects as H, spec as S
+from studies import hcs, hcs_effects as H
+
+from _hcs_clumps import rough_dimer_runs
 
 N, BOX, MASS = 200, 8.0, 2.0
 
@@ -31,12 +33,8 @@ def _records(effect, seeds=(1, 2, 3, 4), spread=0.05, transient=True):
     """Exact and uncorrected runs of the hcs_clumps spec's rough dimer, the uncorrected case's
     observables ``(1 + effect[o])`` times the exact ones of its seed; seeds differ by ``spread``."""
     rng = np.random.default_rng(7)
-    spec = S.load(f"{S.SPEC_DIR}/hcs_clumps.toml")
-    runs = [r for r in S.runs(spec) if r["params"]["shape"]["definition"]["kind"] == "dimer"
-            and "friction" in r["params"]["material"] and r["params"]["case"] in ("exact", "uncorrected")
-            and r["params"]["seed"] in seeds]
     out = []
-    for r in runs:
+    for r in rough_dimer_runs(seeds):
         p = r["params"]
         srng = np.random.default_rng(p["seed"])
         tau0, ratio, d0 = (x * (1 + spread * srng.normal()) for x in (8.0, 0.6, 0.05))

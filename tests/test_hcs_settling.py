@@ -8,6 +8,8 @@ import pytest
 from studies import hcs_settling as HS
 from studies import spec as S
 
+from _hcs_clumps import rough_dimer_runs
+
 N = 200
 
 
@@ -28,12 +30,8 @@ def _series(tau0, ratio, t_end=60.0, clusters_at=None, noise=0.0, rng=None, dt=0
 def _records(case_series, seeds=(1, 2, 3, 4), spread=0.05):
     """Exact and uncorrected runs of hcs_clumps' rough dimer; ``case_series(seed_rng, tau0, ratio)``
     gives the uncorrected run's series from the exact run's tau0 and ratio."""
-    spec = S.load(f"{S.SPEC_DIR}/hcs_clumps.toml")
-    runs = [r for r in S.runs(spec) if r["params"]["shape"]["definition"]["kind"] == "dimer"
-            and "friction" in r["params"]["material"] and r["params"]["case"] in ("exact", "uncorrected")
-            and r["params"]["seed"] in seeds]
     out = []
-    for r in runs:
+    for r in rough_dimer_runs(seeds):
         p = r["params"]
         srng = np.random.default_rng(p["seed"])
         tau0, ratio = 8.0 * (1 + spread * srng.normal()), 0.6 * (1 + spread * srng.normal())
