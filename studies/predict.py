@@ -2,6 +2,7 @@
 
     .venv/bin/python -m studies predict grains                 # every shape and case the spec's groups name
     .venv/bin/python -m studies predict grains --pairs 1000    # a quicker, noisier look
+    .venv/bin/python -m studies predict hcs_clumps --factor ellipsoid20=2.0   # one shape on its own step
 
 For every shape and (case, protocol) the spec's groups name, the relative effect of the case
 against ``exact`` on the first Chapman-Enskog self-diffusion coefficient D of the elastic gas,
@@ -94,6 +95,48 @@ def shape_cases(spec):
             if case in CASES and (case, prot) not in todo:
                 todo.append((case, prot))
     return out
+
+
+def step_factors(values, shapes, default=0.5):
+    """Each shape's time step factor from ``--factor`` arguments.
+
+    Parameters
+    ----------
+    values : list of str or None
+        Each ``F`` (every shape not named otherwise) or ``SHAPE=F`` (that shape); a later argument
+        overrides an earlier one.
+    shapes : iterable of str
+        The spec's shape names.
+    default : float
+        The factor where no argument sets one.
+
+    Returns
+    -------
+    dict
+        shape name -> factor on the smallest member's P-wave step.
+
+    Raises
+    ------
+    ValueError
+        A factor that is not a positive finite number, or a shape the spec does not define.
+    """
+    shapes = list(shapes)
+    every, own = default, {}
+    for v in values or ():
+        name, sep, num = v.rpartition("=")
+        try:
+            f = float(num)
+        except ValueError:
+            f = float("nan")
+        if not (math.isfinite(f) and f > 0):
+            raise ValueError(f"--factor {v}: the factor must be a positive number")
+        if not sep:
+            every = f
+        elif name in shapes:
+            own[name] = f
+        else:
+            raise ValueError(f"--factor {v}: the spec has no shape {name!r} (it has {', '.join(shapes)})")
+    return {name: own.get(name, every) for name in shapes}
 
 
 def gas_key(name, shape):
@@ -269,6 +312,33 @@ def merged(rows, path, gas=None, hcs_gas=None):
     return kept + list(rows)
 
 
+def refresh_gas(path=OUT, gas_path=EFFECTS, hcs_path=HCS_EFFECTS):
+    """Bring the gas columns of the predictions table at ``path`` up to date with the gas tables,
+    running nothing (``python -m studies.report`` calls it after the gas tables change).
+
+    Parameters
+    ----------
+    path : str
+        The predictions table (absent: nothing to do).
+    gas_path, hcs_path : str
+        The elastic and the cooling gas effects tables.
+
+    Returns
+    -------
+    int
+        The rows whose gas columns changed; the file is rewritten only when some did.
+    """
+    if not os.path.exists(path):
+        return 0
+    with open(path, newline="") as f:
+        old = list(csv.DictReader(f))
+    new = merged([], path, gas_intervals(gas_path), hcs_intervals(hcs_path))
+    changed = sum(a != b for a, b in zip(old, new)) + abs(len(old) - len(new))
+    if changed:
+        write_table(new, path)
+    return changed
+
+
 def write_table(rows, path):
     """Write ``rows`` (dicts with the keys ``COLUMNS``) as CSV to ``path``."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
@@ -284,7 +354,9 @@ def _parser():
     ap.add_argument("spec", help="study spec file or name (studies/specs/NAME.toml)")
     ap.add_argument("--pairs", type=int, default=4000, help="collision courses per shape (default 4000)")
     ap.add_argument("--seed", type=int, default=17)
-    ap.add_argument("--factor", type=float, default=0.5, help="dt factor on the smallest member's P-wave step")
+    ap.add_argument("--factor", action="append", metavar="[SHAPE=]F",
+                    help="dt factor on the smallest member's P-wave step (default 0.5); SHAPE=F sets one shape's, "
+                         "and the option repeats")
     ap.add_argument("--workdir", default=None, help="keep the YADE runs here (reused by a repeated call)")
     ap.add_argument("--gas", default=EFFECTS, help="the gas effects table (default results/effects.csv)")
     ap.add_argument("--hcs-gas", default=HCS_EFFECTS,
@@ -334,6 +406,11 @@ def main(argv=None):
     if a.pairs < 10:
         print(f"error: --pairs {a.pairs}: at least 10 collision courses are needed for a standard error", file=sys.stderr)
         return 2
+    try:
+        a.factor = step_factors(a.factor, spec["shapes"])
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     saved = dict(tc.MATERIAL)
     try:
         return _predict(a, spec)
@@ -355,12 +432,12 @@ def _predict(a, spec):
             continue
         _set_material(spec, law)
         shape = spec["shapes"][name]
-        tag = f"{name}-E{law[0]:g}-n{a.pairs}-s{a.seed}"
+        tag, factor = f"{name}-E{law[0]:g}-n{a.pairs}-s{a.seed}", a.factor[name]
         if is_elastic(law):
-            rows = elastic_predictions(shape, cases, a.pairs, a.seed, a.factor, work, tag)
+            rows = elastic_predictions(shape, cases, a.pairs, a.seed, factor, work, tag)
         else:
             tag += f"-e{law[1]:g}-mu{law[2]:g}"
-            rows = predict_cooling.cooling_predictions(shape, [c for c, _ in cases], a.pairs, a.seed, a.factor, work,
+            rows = predict_cooling.cooling_predictions(shape, [c for c, _ in cases], a.pairs, a.seed, factor, work,
                                                        tag, yade_for(shape, tc.MATERIAL["density"], law[2]))
         cpu = sum(r["cpu_s"] for r in rows)
         for r in rows:
@@ -368,7 +445,7 @@ def _predict(a, spec):
                   f"{100 * r['predicted']:+.2f} % ± {100 * r['predicted_se']:.2f} % (se, {r['pairs_used']} collisions)"
                   + (f"; T_rot/T_tr {r['ratio_exact']:.4f} (exact), {r['ratio_case']:.4f} (case), root check "
                      f"at r* {100 * r['root_check']:.2f} %" if "ratio_exact" in r else ""))
-        print(f"[predict] {name}: CPU {cpu / 60:.1f} min", flush=True)
+        print(f"[predict] {name}: CPU {cpu / 60:.1f} min (dt factor {factor:g})", flush=True)
         table += prediction_rows(name, shape, law, rows, gas, hcs_gas)
     write_table(merged(table, a.out, gas, hcs_gas), a.out)
     print(f"[predict] wrote {os.path.relpath(a.out, ROOT)}; wall {(time.time() - t0) / 60:.1f} min")
