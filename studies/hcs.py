@@ -556,8 +556,9 @@ def analyse_series(s, t_transient=0.0, fit_from=0.0):
     return {"t_end_homogeneous": t_hom, "haff": haff, "ratio": rot, "msd": msd, "rot_dof": f_rot}
 
 
-# s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: T_rot / T_tr settles
-# to its HCS value within a few mean free times (docs/hcs.md)
+# s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: past it the
+# frictionless gases' T_rot / T_tr is at its HCS value, while the frictional ones' still relaxes
+# over several Haff times (hcs_relaxation.csv and hcs_settling.csv measure how far; docs/hcs.md)
 CLUMP_TRANSIENT = 5.0
 
 

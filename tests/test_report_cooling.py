@@ -1,6 +1,7 @@
 """The report's cooling section (studies.report.tables.cooling_tables, cooling.md.j2) on small tables."""
 import csv
 
+from studies import report
 from studies.report import tables
 from studies.report.render import render
 
@@ -19,9 +20,9 @@ def _effect(case, obs, rel, lo, hi, n=4):
             "yade_version": "2025.2", "rot_algorithm": "delValle2023"}
 
 
-def _pred(shape, case, obs, p, se, e=0.9, mu=0.5):
+def _pred(shape, case, obs, p, se, e=0.9, mu=0.5, cpu_s=10):
     return {"shape": shape, "youngs_modulus": "1e+08", "restitution": e, "friction": mu, "case": f"{case}/paired",
-            "observable": obs, "predicted": p, "predicted_se": se, "cpu_s": 10, "gas_relative": "", "gas_ci_low": "",
+            "observable": obs, "predicted": p, "predicted_se": se, "cpu_s": cpu_s, "gas_relative": "", "gas_ci_low": "",
             "gas_ci_high": ""}
 
 
@@ -43,8 +44,27 @@ def test_the_predictor_record_counts_gas_intervals_that_meet_their_prediction(tm
     assert record["targets_met"] == 2                                            # 0.5 % half-widths
     assert [p["shape"] for p in predicted] == ["tet"]                            # the elastic grain is not a cooling row
     text = render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted)
-    assert "of 2 gas intervals with a prediction, 1 meet" in text and "dimer mu = 0.5 uncorrected diffusion" in text
+    assert "of 2 gas intervals with a prediction, 1 overlap the prediction's 95 % band" in text
+    assert '"inside": 1 of them hold the predicted value itself) and 1 do not (dimer mu = 0.5 uncorrected diffusion)' in text
     assert "-4.10 % ± 0.20 %" in text
+
+
+def test_the_predictor_cost_of_a_shape_and_contact_law_is_the_sum_of_its_rows_shares(tmp_path, monkeypatch):
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035)])
+    obs = ("cooling_rate", "temperature_ratio", "diffusion")
+    # each row holds a third of its case's runs and of its share of exact's (predict_cooling)
+    rows = [_pred("dimer", c, o, 0.01, 0.001, cpu_s=20) for c in ("uncorrected", "mass_only") for o in obs]
+    rows += [_pred("grain", c, o, 0.01, 0.001, mu=mu, cpu_s=cpu) for mu, cpu in ((0.5, 70), (0, 30))
+             for c in ("uncorrected", "mass_only", "inertia_only") for o in obs]
+    rows.append(_pred("grain", "uncorrected", "diffusion", 0.01, 0.001, e=1, mu=0, cpu_s=9999))   # elastic: no cooling law
+    _write(tmp_path / "predictions.csv", rows)
+    monkeypatch.setattr(tables, "PREDICTOR_TARGET_CPU_MIN", 10.0)
+    _, clumps, record, predicted = tables.cooling_tables(str(tmp_path))
+    costs = [(c["shape"], c["friction"], c["n_cases"], round(c["cpu_min"], 6), c["within"]) for c in record["costs"]]
+    assert costs == [("grain", 0.5, 3, 10.5, False), ("grain", 0.0, 3, 4.5, True), ("dimer", 0.5, 2, 2.0, True)]
+    text = render("cooling.md.j2", theory=[], clumps=clumps, record=record, predicted=predicted)
+    assert "every case together, is 2.0 to 10.5 CPU-min against a target of 10; above it: grain mu = 0.5 " \
+           "(10.5 CPU-min, 3 cases)." in text
 
 
 def test_the_cooling_checks_name_groups_still_relaxing_and_estimators_that_miss(tmp_path):
@@ -156,3 +176,66 @@ def test_the_settling_paragraph_names_effects_that_still_move_after_the_transien
     assert "over the runs of `hcs_clumps`." in text and "hcs_settling.png" in text
     calm = render("cooling.md.j2", theory=[], clumps=clumps, record=None, predicted=[], settling=got[:1])
     assert "In none of them does the change's interval exclude 0; changes up to about ±2 pp are not excluded." in calm
+
+
+def test_the_cooling_answer_resolves_an_effect_only_where_its_interval_excludes_zero(tmp_path):
+    _write(tmp_path / "hcs_effects.csv", [_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035),
+                                          _effect("uncorrected", "temperature_ratio", 0.01, -0.01, 0.03),
+                                          _effect("uncorrected", "diffusion", 0.08, 0.02, 0.14, n=3),
+                                          _effect("mass_only", "cooling_rate", -0.2, -0.3, -0.1),
+                                          dict(_effect("uncorrected", "cooling_rate", 0.02, -0.2, 0.2, n=1),
+                                               shape="grain")])
+    _write(tmp_path / "predictions.csv", [_pred("dimer", "uncorrected", "cooling_rate", -0.041, 0.002)])
+    _, clumps, record, predicted = tables.cooling_tables(str(tmp_path))
+    answer = tables.cooling_answer(clumps)
+    dimer, grain = answer["rows"]
+    assert (dimer["shape"], dimer["n_pairs"], grain["n_pairs"]) == ("dimer", 3, 1)
+    assert [dimer["effects"][o]["resolved"] for o in ("cooling_rate", "temperature_ratio", "diffusion")] == \
+        [True, False, True]
+    assert grain["effects"]["cooling_rate"]["resolved"] is None                  # one pair: no interval
+    # mass_only's -20 % is not the uncorrected case's: the largest resolved effect is the dimer's D0
+    assert (answer["n"], answer["resolved"], answer["top"]["observable"]) == (3, 2, "diffusion")
+    assert (answer["smallest"], answer["largest"]) == (0.04, 0.08)
+    text = render("cooling.md.j2", theory=[], clumps=clumps, record=record, predicted=predicted, answer=answer)
+    assert "| dimer | 0.9 | 0.5 | 3 | **-4.0 %** [-4.5, -3.5] | not resolved (±2.0 %) | **+8.0 %** [+2.0, +14.0] |" in text
+    assert "| grain | 0.9 | 0.5 | 1 | n/a | n/a | n/a |" in text
+    assert "2 of these 3 effects are resolved, from 4.0 % to 8.0 % in size." in text
+    assert "| -4.10 % ± 0.20 % | inside |" in text                               # the gas interval holds it
+    words = "\n".join(report.plain_words([], [], None, answer))
+    assert "2 of the 3 effects of summing the member spheres" in words
+    assert "the largest is the rough dimer's self-diffusion, +8.0 % [+2.0, +14.0] %." in words
+    assert report.plain_words([], [], None, tables.cooling_answer([])) == []      # nothing to say
+
+
+def test_the_campaign_table_states_each_sequential_groups_target_and_projection():
+    campaign = tables.cooling_campaign()                       # the committed hcs_clumps records
+    assert campaign["path"] == "studies/specs/hcs_clumps.toml" and campaign["budget"] == 32
+    assert 0 < campaign["cpu_hours"] <= campaign["budget"]
+    targets = {(g["label"], g["shape"]): (g["case"], g["observable"]) for g in campaign["groups"]}
+    assert targets[("rough", "dimer")] == ("uncorrected", "temperature_ratio")
+    assert targets[("grain_rough", "ellipsoid20")] == ("uncorrected", "diffusion")
+    g = dict(campaign["groups"][0], label="smooth", shape="dimer", case="uncorrected", observable="cooling_rate",
+             n=12, mean=-0.0515, halfwidth=0.0089, target=0.01, state="target met", n_needed=12,
+             cpu_hours_to_target=None)
+    row = dict(_effect("uncorrected", "cooling_rate", -0.04, -0.045, -0.035), halfwidth=0.005, target=0.01,
+               predicted=None, predicted_se=None)
+    text = render("cooling.md.j2", theory=[], clumps=[row], record=None, predicted=[],
+                  campaign=dict(campaign, groups=[g], cpu_hours=11.04))
+    assert "The campaign (`studies/specs/hcs_clumps.toml`): 11.0 CPU-hours of a budget of 32." in text
+    assert "| smooth | dimer | uncorrected, cooling_rate | 12 | -5.15 % | 0.89 % | 1.00 % | target met | 12 | n/a |" in text
+    assert tables.cooling_campaign("no_such_spec") is None
+
+
+def test_the_laws_words_quote_the_mass_term_at_a_stiffness_its_points_ran_at():
+    def row(e, stiff):
+        return dict(observable="cooling_rate", restitution=e, friction=0.0, coef_k2=-0.2, coef_k2_se=0.01,
+                    coef_mass=-0.8, coef_mass_se=0.05, n_points=9, rms_residual=0.01, chi2_dof=1.0, n_checks=2,
+                    n_checks_inside=2, stiffnesses=stiff)
+    # softness (E / 1e7 Pa)^(-2/5): 10^(-0.4) = 0.398 at 1e8 Pa, so -0.8 x 10 % x 0.398 = -3.18 %
+    cooling = render("law.md.j2", rows=[row(0.9, [1e8])], formula="f")
+    assert "a mass 10 % too large (at the same k² and E = 1e+08 Pa, the one stiffness its points ran at) by -3.18 %" in cooling
+    assert "YADE sets its viscous damping from the colliding member spheres' reduced mass" in cooling
+    assert "Each dissipative fit's points ran at one stiffness" in cooling
+    elastic = render("law.md.j2", rows=[row(1.0, [1e7, 1e8, 1e9])], formula="f")
+    assert "a mass 10 % too large (at the same k² and E = 1e+07 Pa) by -8.00 %" in elastic
+    assert "damping" not in elastic

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import sys
 
-from .. import effects, effects_plots, rates, sphere_gas
+from .. import effects, effects_plots, predict, rates, sphere_gas
 from .. import spec as S
 from . import answers, findings, tables
 from .render import apart as _apart
@@ -70,10 +70,11 @@ def failures_section(lines, failures):
     lines += _lines(render("failures.md.j2", failures=failures))
 
 
-def plain_words(effect_rows, maps, share):
-    """The lines of the three answers the issue asks for, in words, from effects.csv's rows, the
-    collision maps and the paper's share (each clause only where its numbers exist)."""
-    return _lines(render("plain_words.md.j2", **answers.plain_words_facts(effect_rows, maps, share)))
+def plain_words(effect_rows, maps, share, cooling=None):
+    """The lines of the answers the issues ask for, in words, from effects.csv's rows, the
+    collision maps, the paper's share and the cooling gases' answer (``tables.cooling_answer``;
+    each clause only where its numbers exist)."""
+    return _lines(render("plain_words.md.j2", **answers.plain_words_facts(effect_rows, maps, share, cooling)))
 
 
 def answers_section(lines, plans, sph, effect_rows=(), maps=(), share=False):
@@ -104,13 +105,15 @@ def build():
     collected = effects.collect(specs, [p.records for p in plans])
     values = effects.paired_values(specs, collected)
     rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"), values=values)
+    predict.refresh_gas(os.path.join(RESULTS, "predictions.csv"), os.path.join(RESULTS, "effects.csv"),
+                        os.path.join(RESULTS, "hcs_effects.csv"))      # its gas columns follow the gas tables
     sph = sphere_gas.read(os.path.join(RESULTS, "sphere_gas.csv"))
     figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
     maps = effects_plots.read_collision_maps(RESULTS)
     share = paper_share(specs, values=values)
     lines = _lines(render("header.md.j2"))
     failures_section(lines, failures)
-    lines += plain_words(rows, maps, share)
+    lines += plain_words(rows, maps, share, tables.cooling_answer(tables.cooling_tables(RESULTS)[1]))
     answers_section(lines, plans, sph, rows, maps, share)
     fig2_section(lines)
     programme_section(lines, plans)

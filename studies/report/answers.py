@@ -169,9 +169,10 @@ def _through(paper, maps):
                 gaps=_equal_energy_gaps(maps))
 
 
-def plain_words_facts(effect_rows, maps, share):
-    """The facts of the three answers the issue asks for, from effects.csv's rows, the collision
-    maps and the paper's share (each only where its numbers exist; ``said``: any of them)."""
+def plain_words_facts(effect_rows, maps, share, cooling=None):
+    """The facts of the answers the issues ask for, from effects.csv's rows, the collision maps,
+    the paper's share and the cooling gases' answer (``tables.cooling_answer``; each only where its
+    numbers exist; ``said``: any of them)."""
     paper = tables.paper_maps(maps)
     m7 = paper.get(1e7, {})
     gp, ge = tables.effect_row(effect_rows, "paired"), tables.effect_row(effect_rows, "equal_energy")
@@ -187,6 +188,7 @@ def plain_words_facts(effect_rows, maps, share):
                                      for c in ("mass_only", "inertia_only")) if e]
     f = dict(matter=matter, through=_through(paper, maps), gas=gas, other_shapes=_other_shapes(effect_rows),
              stiffness=_stiffness(effect_rows, maps),
-             share=share if share is not None and np.isfinite(share["low"]) else None)
+             share=share if share is not None and np.isfinite(share["low"]) else None,
+             cooling=cooling if cooling and cooling["n"] else None)
     f["said"] = any(v for v in f.values())
     return f

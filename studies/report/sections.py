@@ -75,7 +75,7 @@ def cooling_section(lines, results):
     theory, clumps, record, predicted = tables.cooling_tables(results)
     est, moving, n_relax = tables.cooling_checks(results)
     lines += _lines(render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted,
-                           estimator=est, moving=moving, n_relax=n_relax, flow=tables.cooling_flow(results),
+                           answer=tables.cooling_answer(clumps), campaign=tables.cooling_campaign(), estimator=est, moving=moving, n_relax=n_relax, flow=tables.cooling_flow(results),
                            window=tables.cooling_window(results), settling=tables.cooling_settling(results),
                            maxwellian=tables.cooling_maxwellian(results)))
 
@@ -89,7 +89,10 @@ def law_section(lines, results):
     if rows:
         law.write(rows, os.path.join(results, "law.csv"))
         law.plot(fits, checks, os.path.join(results, "law.png"))
-    lines += _lines(render("law.md.j2", rows=rows, formula=law.FORMULA))
+    # the stiffnesses each fit's points ran at: the words quote the mass term at one of them
+    stiff = {k: sorted({p["youngs_modulus"] for p in pts}) for k, (_, pts) in fits.items()}
+    words = [dict(r, stiffnesses=stiff[(r["observable"], r["restitution"], r["friction"])]) for r in rows]
+    lines += _lines(render("law.md.j2", rows=words, formula=law.FORMULA))
 
 
 def sphere_gas_section(lines, sph):

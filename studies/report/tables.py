@@ -261,10 +261,38 @@ def same_spin_rows(specs, records=None):
 
 
 HCS_TARGETS = {"cooling_rate": 0.01, "temperature_ratio": 0.01, "diffusion": 0.02}     # issue 36's half-widths
+PREDICTOR_TARGET_CPU_MIN = 30.0          # the predictor's cost per shape and contact law, every case
 
 
 def _csv_rows(path):
     return pd.read_csv(path).to_dict("records") if os.path.exists(path) else []
+
+
+def predictor_costs(preds):
+    """The predictor's CPU cost per shape and dissipative contact law, every case together.
+
+    Parameters
+    ----------
+    preds : iterable of dict
+        ``predictions.csv`` rows.  A row's ``cpu_s`` is its share: its case's YADE runs and an
+        equal share of the exact case's, split over the case's observables, so a law's rows sum to
+        its cost.
+
+    Returns
+    -------
+    list of dict
+        shape, youngs_modulus, restitution, friction, n_cases, cpu_min, within (cpu_min <=
+        ``PREDICTOR_TARGET_CPU_MIN``), costliest first.
+    """
+    laws = {}
+    for p in preds:
+        law = (p["shape"], float(p["youngs_modulus"]), float(p["restitution"]), float(p["friction"]))
+        cost, cases = laws.setdefault(law, [0.0, set()])
+        laws[law][0] = cost + float(p["cpu_s"])
+        cases.add(str(p["case"]))
+    out = [dict(shape=k[0], youngs_modulus=k[1], restitution=k[2], friction=k[3], n_cases=len(cases),
+                cpu_min=cost / 60, within=cost / 60 <= PREDICTOR_TARGET_CPU_MIN) for k, (cost, cases) in laws.items()]
+    return sorted(out, key=lambda c: -c["cpu_min"])
 
 
 def cooling_tables(results):
@@ -297,10 +325,83 @@ def cooling_tables(results):
     apart = [c for c in both if not (c["relative_ci_low"] <= c["predicted"] + 1.96 * c["predicted_se"]
                                      and c["predicted"] - 1.96 * c["predicted_se"] <= c["relative_ci_high"])]
     record = dict(n=len(both), overlap=len(both) - len(apart), apart=len(apart), apart_rows=apart,
+                  contain=sum(c["relative_ci_low"] <= c["predicted"] <= c["relative_ci_high"] for c in both),
                   n_rows=len(clumps), targets_met=sum(c["n_pairs"] >= 2 and c["halfwidth"] <= c["target"]
-                                                      for c in clumps)) if clumps else None
+                                                      for c in clumps),
+                  costs=predictor_costs(preds.values()), cost_target=PREDICTOR_TARGET_CPU_MIN) if clumps else None
     predicted = [p for k, p in preds.items() if k not in used]
     return theory, clumps, record, predicted
+
+
+def cooling_campaign(name="hcs_clumps"):
+    """The cooling clump campaign's state: each sequential group's target, pairs and projection
+    (:func:`planned`), and the spec's CPU-hours and budget; None without the spec or its records.
+
+    Parameters
+    ----------
+    name : str
+        The campaign's spec (a committed spec's name or a file).
+
+    Returns
+    -------
+    dict or None
+        name, path, cpu_hours, budget and ``groups``: per sequential group its shape, label and
+        :func:`studies.design.plan` status (case, observable, n, mean, halfwidth, target, state,
+        n_needed, cpu_hours_to_target).
+    """
+    try:
+        sp = S.load(S.spec_path(name))
+    except (S.SpecError, OSError):
+        return None
+    plan = planned([sp])[0]
+    if not plan.records:
+        return None
+    groups = [dict(st, shape=sp["groups"][gi]["shape"], label=sp["groups"][gi].get("label", ""))
+              for gi, st in sorted(plan.status.items())]
+    return dict(name=sp["study"]["name"], path=sp["path"], groups=groups,
+                cpu_hours=design.cpu_hours(plan.records), budget=sp["study"].get("budget_cpu_hours"))
+
+
+def cooling_answer(clumps, case="uncorrected"):
+    """Does the correction matter in a cooling gas?  One row per shape and contact law: ``case``'s
+    effect against exact on each observable, whether its interval excludes 0.
+
+    Parameters
+    ----------
+    clumps : list of dict
+        :func:`cooling_tables`' clump rows.
+    case : str
+        The case against exact (default the summed spheres, ``uncorrected``).
+
+    Returns
+    -------
+    dict
+        ``rows``: shape, restitution, friction, n_pairs (the fewest of its observables) and
+        ``effects``: observable -> dict(relative, low, high, halfwidth, resolved), resolved None
+        with fewer than two pairs; in the table's order.  ``n``: the effects with an interval;
+        ``resolved``: those whose interval excludes 0; ``smallest``, ``largest``: their sizes
+        |relative|, and ``top`` the largest one's effect with its shape, friction and observable
+        (None when none is resolved).
+    """
+    out = {}
+    for c in clumps:
+        if c["case"] != case:
+            continue
+        key = (c["shape"], float(c["restitution"]), float(c["friction"]))
+        row = out.setdefault(key, dict(shape=key[0], restitution=key[1], friction=key[2], n_pairs=int(c["n_pairs"]),
+                                       effects={}))
+        row["n_pairs"] = min(row["n_pairs"], int(c["n_pairs"]))
+        two = c["n_pairs"] >= 2
+        row["effects"][c["observable"]] = dict(
+            relative=c["relative"], low=c["relative_ci_low"], high=c["relative_ci_high"],
+            halfwidth=c["halfwidth"],
+            resolved=(c["relative_ci_low"] > 0 or c["relative_ci_high"] < 0) if two else None)
+    rows = list(out.values())
+    judged = [dict(x, shape=r["shape"], friction=r["friction"], observable=o)
+              for r in rows for o, x in r["effects"].items() if x["resolved"] is not None]
+    hits = sorted((x for x in judged if x["resolved"]), key=lambda x: abs(x["relative"]))
+    return dict(rows=rows, n=len(judged), resolved=len(hits), smallest=abs(hits[0]["relative"]) if hits else None,
+                largest=abs(hits[-1]["relative"]) if hits else None, top=hits[-1] if hits else None)
 
 
 def _excludes_zero(row, name):
