@@ -557,8 +557,8 @@ def analyse_series(s, t_transient=0.0, fit_from=0.0):
 
 
 # s of a clump gas's start (equipartition, T_rot = T_tr) left out of every fit: past it the
-# frictionless gases' T_rot / T_tr is at its HCS value, while the frictional ones' still relaxes
-# over several Haff times (hcs_relaxation.csv and hcs_settling.csv measure how far; docs/hcs.md)
+# frictionless gases' T_rot / T_tr is at its HCS value, while in some frictional groups it still
+# relaxes (hcs_relaxation.csv and hcs_settling.csv measure how far; docs/hcs.md)
 CLUMP_TRANSIENT = 5.0
 
 

@@ -11,7 +11,8 @@ spec defines; an aspherical shape runs on YADE 2025.2 through scripts/debian13.s
 standard error over the collisions and the CPU time of its YADE runs.  Beside each prediction
 stands the gas interval where the committed gas runs have one (``results/effects.csv``).
 Writes ``results/predictions.csv`` (columns ``COLUMNS``): the rows of the spec's shapes and contact
-laws replace theirs, the other rows stay (:func:`merged`); never writes another file than ``--out``.
+laws replace theirs, the other rows stay (:func:`studies.prediction_table.merged`); never writes
+another file than ``--out``.
 
 Inelastic and frictional contacts (spec keys ``restitution`` and ``friction`` under [material] or
 in a group) make the homogeneous cooling state the gas's natural state: for them each case's effect
@@ -34,15 +35,12 @@ import numpy as np
 
 from . import maps, predict_cooling
 from . import shapes as shp
+from .prediction_table import (COLUMNS, EFFECTS, HCS_EFFECTS, OUT, gas_intervals, hcs_intervals,  # noqa: F401
+                               is_elastic, merged, refresh_gas, write_table)
 from .timestep import collisions as tc
 
 ROOT = tc.ROOT
-OUT = os.path.join(ROOT, "results", "predictions.csv")
-EFFECTS = os.path.join(ROOT, "results", "effects.csv")
-HCS_EFFECTS = os.path.join(ROOT, "results", "hcs_effects.csv")
 CASES = ("uncorrected", "mass_only", "inertia_only")       # each predicted against exact
-COLUMNS = ["shape", "youngs_modulus", "restitution", "friction", "case", "observable", "predicted",
-           "predicted_se", "cpu_s", "gas_relative", "gas_ci_low", "gas_ci_high"]
 
 
 def contact_law(spec, group=None):
@@ -65,11 +63,6 @@ def contact_law(spec, group=None):
 
     mat = S.group_tables(spec, group)[0] if group is not None else spec["material"]
     return float(mat["youngs_modulus"]), float(mat.get("restitution", 1.0)), float(mat.get("friction", 0.0))
-
-
-def is_elastic(law):
-    """True for an elastic, frictionless contact law (restitution 1, friction 0)."""
-    return law[1] == 1.0 and law[2] == 0.0
 
 
 def shape_cases(spec):
@@ -144,51 +137,6 @@ def gas_key(name, shape):
     if shape["kind"] == "file":
         return name, ""
     return shape["kind"], f"{float(shape['overlap']):g}"
-
-
-def _intervals(path, key, keep=lambda r: True):
-    """``{key(row): (relative, ci_low, ci_high)}`` of the rows of an effects table that ``keep``;
-    empty when ``path`` does not exist."""
-    if not os.path.exists(path):
-        return {}
-    with open(path, newline="") as f:
-        return {key(r): tuple(float(r[k]) for k in ("relative", "relative_ci_low", "relative_ci_high"))
-                for r in csv.DictReader(f) if keep(r)}
-
-
-def gas_intervals(path=EFFECTS):
-    """The committed gas effects: (shape, overlap, protocol, youngs_modulus, case) -> (relative,
-    ci_low, ci_high); empty when ``path`` does not exist.
-
-    Parameters
-    ----------
-    path : str
-        A table with the columns of ``results/effects.csv``.
-
-    Returns
-    -------
-    dict
-    """
-    return _intervals(path, lambda r: (r["shape"], f"{float(r['overlap']):g}" if r["overlap"] else "", r["protocol"],
-                                       float(r["youngs_modulus"]), r["case"]))
-
-
-def hcs_intervals(path=HCS_EFFECTS):
-    """The committed cooling-gas effects of the paired protocol: (shape, youngs_modulus, restitution,
-    friction, case, observable) -> (relative, ci_low, ci_high); empty when ``path`` does not exist.
-
-    Parameters
-    ----------
-    path : str
-        A table with the columns of ``results/hcs_effects.csv``.
-
-    Returns
-    -------
-    dict
-    """
-    return _intervals(path, lambda r: (r["shape"], float(r["youngs_modulus"]), float(r["restitution"]),
-                                       float(r["friction"]), r["case"], r["observable"]),
-                      keep=lambda r: r["protocol"] == "paired")
 
 
 def yade_for(shape, density, friction=0.0):
@@ -266,86 +214,6 @@ def prediction_rows(name, shape, law, rows, gas, hcs_gas=None):
                     "gas_ci_low": "" if g is None else f"{g[1]:.6g}",
                     "gas_ci_high": "" if g is None else f"{g[2]:.6g}"})
     return out
-
-
-def merged(rows, path, gas=None, hcs_gas=None):
-    """``rows`` with the rows of the table at ``path`` that they do not replace: a row of another
-    (shape, youngs_modulus, restitution, friction) stays, its gas columns brought up to date from
-    ``gas`` (:func:`gas_intervals`) where its shape is a template (effects.csv names it by the
-    template's file stem, with no overlap), and from ``hcs_gas`` (:func:`hcs_intervals`) for a
-    cooling row.
-
-    Parameters
-    ----------
-    rows : list of dict
-        New rows (keys ``COLUMNS``).
-    path : str
-        The table (absent: ``rows`` alone).
-    gas : dict, optional
-        The committed elastic gas intervals.
-    hcs_gas : dict, optional
-        The committed cooling gas intervals.
-
-    Returns
-    -------
-    list of dict
-    """
-    if not os.path.exists(path):
-        return list(rows)
-    with open(path, newline="") as f:
-        old = list(csv.DictReader(f))
-    law = lambda r: (r["shape"], r["youngs_modulus"], r["restitution"], r["friction"])     # noqa: E731
-    new = {law(r) for r in rows}
-    kept = []
-    for r in old:
-        if law(r) in new or set(r) != set(COLUMNS):
-            continue
-        case, _, prot = r["case"].partition("/")
-        contact = (float(r["youngs_modulus"]), float(r["restitution"]), float(r["friction"]))
-        if is_elastic(contact):
-            g = (gas or {}).get((r["shape"], "", prot, contact[0], case))
-        else:
-            g = (hcs_gas or {}).get((r["shape"], *contact, case, r["observable"]))
-        if g is not None:
-            r = dict(r, gas_relative=f"{g[0]:.6g}", gas_ci_low=f"{g[1]:.6g}", gas_ci_high=f"{g[2]:.6g}")
-        kept.append(r)
-    return kept + list(rows)
-
-
-def refresh_gas(path=OUT, gas_path=EFFECTS, hcs_path=HCS_EFFECTS):
-    """Bring the gas columns of the predictions table at ``path`` up to date with the gas tables,
-    running nothing (``python -m studies.report`` calls it after the gas tables change).
-
-    Parameters
-    ----------
-    path : str
-        The predictions table (absent: nothing to do).
-    gas_path, hcs_path : str
-        The elastic and the cooling gas effects tables.
-
-    Returns
-    -------
-    int
-        The rows whose gas columns changed; the file is rewritten only when some did.
-    """
-    if not os.path.exists(path):
-        return 0
-    with open(path, newline="") as f:
-        old = list(csv.DictReader(f))
-    new = merged([], path, gas_intervals(gas_path), hcs_intervals(hcs_path))
-    changed = sum(a != b for a, b in zip(old, new)) + abs(len(old) - len(new))
-    if changed:
-        write_table(new, path)
-    return changed
-
-
-def write_table(rows, path):
-    """Write ``rows`` (dicts with the keys ``COLUMNS``) as CSV to ``path``."""
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
-        w.writeheader()
-        w.writerows(rows)
 
 
 def _parser():

@@ -114,7 +114,7 @@ def results_dir(spec):
 
 
 def spec_path(name):
-    """The spec file a command-line argument names: ``name`` itself where that file exists, else
+    """The spec file a command-line argument names: ``name`` itself where it is a file, else
     ``studies/specs/NAME.toml`` (``.toml`` optional); ``name`` unchanged where neither exists, so
     :func:`load` reports the missing file.
 
@@ -127,10 +127,10 @@ def spec_path(name):
     -------
     str
     """
-    if os.path.exists(name):
+    if os.path.isfile(name):
         return name
     p = os.path.join(SPEC_DIR, name if name.endswith(".toml") else name + ".toml")
-    return p if os.path.exists(p) else name
+    return p if os.path.isfile(p) else name
 
 
 def load(path):

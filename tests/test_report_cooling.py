@@ -1,8 +1,10 @@
 """The report's cooling section (studies.report.tables.cooling_tables, cooling.md.j2) on small tables."""
 import csv
 
+import pytest
+
 from studies import report
-from studies.report import tables
+from studies.report import sections, tables
 from studies.report.render import render
 
 
@@ -184,7 +186,10 @@ def test_the_cooling_answer_resolves_an_effect_only_where_its_interval_excludes_
                                           _effect("uncorrected", "diffusion", 0.08, 0.02, 0.14, n=3),
                                           _effect("mass_only", "cooling_rate", -0.2, -0.3, -0.1),
                                           dict(_effect("uncorrected", "cooling_rate", 0.02, -0.2, 0.2, n=1),
-                                               shape="grain")])
+                                               shape="grain"),
+                                          # another protocol is another question: not in the paired answer
+                                          dict(_effect("uncorrected", "cooling_rate", 0.5, 0.4, 0.6),
+                                               protocol="equal_energy")])
     _write(tmp_path / "predictions.csv", [_pred("dimer", "uncorrected", "cooling_rate", -0.041, 0.002)])
     _, clumps, record, predicted = tables.cooling_tables(str(tmp_path))
     answer = tables.cooling_answer(clumps)
@@ -197,7 +202,8 @@ def test_the_cooling_answer_resolves_an_effect_only_where_its_interval_excludes_
     assert (answer["n"], answer["resolved"], answer["top"]["observable"]) == (3, 2, "diffusion")
     assert (answer["smallest"], answer["largest"]) == (0.04, 0.08)
     text = render("cooling.md.j2", theory=[], clumps=clumps, record=record, predicted=predicted, answer=answer)
-    assert "| dimer | 0.9 | 0.5 | 3 | **-4.0 %** [-4.5, -3.5] | not resolved (±2.0 %) | **+8.0 %** [+2.0, +14.0] |" in text
+    assert "| dimer | 0.9 | 0.5 | 3 | **-4.0 %** [-4.5, -3.5] | not resolved (\\|effect\\| < 3.0 %) | **+8.0 %** [+2.0, +14.0] |" \
+        in text
     assert "| grain | 0.9 | 0.5 | 1 | n/a | n/a | n/a |" in text
     assert "2 of these 3 effects are resolved, from 4.0 % to 8.0 % in size." in text
     assert "| -4.10 % ± 0.20 % | inside |" in text                               # the gas interval holds it
@@ -227,15 +233,20 @@ def test_the_campaign_table_states_each_sequential_groups_target_and_projection(
 
 
 def test_the_laws_words_quote_the_mass_term_at_a_stiffness_its_points_ran_at():
-    def row(e, stiff):
+    def row(e):
         return dict(observable="cooling_rate", restitution=e, friction=0.0, coef_k2=-0.2, coef_k2_se=0.01,
                     coef_mass=-0.8, coef_mass_se=0.05, n_points=9, rms_residual=0.01, chi2_dof=1.0, n_checks=2,
-                    n_checks_inside=2, stiffnesses=stiff)
-    # softness (E / 1e7 Pa)^(-2/5): 10^(-0.4) = 0.398 at 1e8 Pa, so -0.8 x 10 % x 0.398 = -3.18 %
-    cooling = render("law.md.j2", rows=[row(0.9, [1e8])], formula="f")
+                    n_checks_inside=2)
+    fits = {("cooling_rate", 0.9, 0.0): (None, [{"youngs_modulus": 1e8}, {"youngs_modulus": 1e8}]),
+            ("cooling_rate", 1.0, 0.0): (None, [{"youngs_modulus": E} for E in (1e9, 1e7, 1e8)])}
+    # softness (E / 1e7 Pa)^(-2/5): 10^(-0.4) = 0.3981 at 1e8 Pa, so -0.8 x 10 % x 0.3981 = -3.18 %
+    words = sections.law_words([row(0.9), row(1.0)], fits)
+    assert (words[0]["mass_at"], words[0]["stiffnesses"], words[1]["mass_at"]) == (1e8, [1e8], 1e7)
+    assert words[0]["mass_10pct"] == pytest.approx(-8.0 * 10 ** -0.4) and words[1]["mass_10pct"] == -8.0
+    cooling = render("law.md.j2", rows=words[:1], formula="f")
     assert "a mass 10 % too large (at the same k² and E = 1e+08 Pa, the one stiffness its points ran at) by -3.18 %" in cooling
     assert "YADE sets its viscous damping from the colliding member spheres' reduced mass" in cooling
-    assert "Each dissipative fit's points ran at one stiffness" in cooling
-    elastic = render("law.md.j2", rows=[row(1.0, [1e7, 1e8, 1e9])], formula="f")
+    assert "Each dissipative fit's points ran at one stiffness" in cooling and "apart.\n\n![The law]" in cooling
+    elastic = render("law.md.j2", rows=words[1:], formula="f")
     assert "a mass 10 % too large (at the same k² and E = 1e+07 Pa) by -8.00 %" in elastic
     assert "damping" not in elastic

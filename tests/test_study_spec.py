@@ -775,6 +775,8 @@ def test_a_spec_argument_is_a_file_where_one_exists_else_a_committed_spec_name(t
         assert S.spec_path(arg) == str(SPECS / "paper.toml")
     monkeypatch.chdir(tmp_path)
     assert S.spec_path("paper.toml") == "paper.toml"              # ./paper.toml exists here
+    (tmp_path / "grains").mkdir()                                 # a folder is not a spec file
+    assert S.spec_path("grains") == str(SPECS / "grains.toml")
     assert S.spec_path("no_such_spec") == "no_such_spec"          # load() then names the missing file
     with pytest.raises(S.SpecError, match="no_such_spec"):
         S.load(S.spec_path("no_such_spec"))

@@ -2,6 +2,9 @@
 
     .venv/bin/python -m studies.report          # writes results/effects.csv and results/README.md
 
+It also brings the gas columns of ``results/predictions.csv`` up to date with the gas tables
+(:func:`studies.prediction_table.refresh_gas`; the predictions themselves stay as they are).
+
 Tables first, words after: :mod:`studies.report.tables` reads ``results/granular_gas/*.csv`` (the
 paper's Fig. 2, paired and equal-energy protocols), ``results/sphere_gas.csv`` (the sphere gas
 against kinetic theory, :mod:`studies.sphere_gas`), the run records of every spec under
@@ -17,7 +20,7 @@ from __future__ import annotations
 import os
 import sys
 
-from .. import effects, effects_plots, predict, rates, sphere_gas
+from .. import effects, effects_plots, prediction_table, rates, sphere_gas
 from .. import spec as S
 from . import answers, findings, tables
 from .render import apart as _apart
@@ -99,14 +102,17 @@ def _write(path, text):
 
 def build():
     """Write ``RESULTS/effects.csv``, ``RESULTS/law.csv``, the report's figures, ``RESULTS/README.md`` and ``docs/findings.md``
-    (:mod:`studies.report.findings`); returns the report's text."""
+    (:mod:`studies.report.findings`), and bring the gas columns of ``RESULTS/predictions.csv`` up to
+    date (:func:`studies.prediction_table.refresh_gas`); returns the report's text."""
     specs, failures = readable_specs()
     plans = planned(specs)                    # every record read, and every design planned, once
     collected = effects.collect(specs, [p.records for p in plans])
     values = effects.paired_values(specs, collected)
     rows = effects.write(specs, os.path.join(RESULTS, "effects.csv"), values=values)
-    predict.refresh_gas(os.path.join(RESULTS, "predictions.csv"), os.path.join(RESULTS, "effects.csv"),
-                        os.path.join(RESULTS, "hcs_effects.csv"))      # its gas columns follow the gas tables
+    n = prediction_table.refresh_gas(os.path.join(RESULTS, "predictions.csv"), os.path.join(RESULTS, "effects.csv"),
+                                     os.path.join(RESULTS, "hcs_effects.csv"))
+    if n:
+        print(f"[report] predictions.csv: the gas columns of {n} row(s) brought up to date", file=sys.stderr)
     sph = sphere_gas.read(os.path.join(RESULTS, "sphere_gas.csv"))
     figs = effects_plots.plot_all(RESULTS, log=lambda s: None)
     maps = effects_plots.read_collision_maps(RESULTS)

@@ -89,10 +89,21 @@ def law_section(lines, results):
     if rows:
         law.write(rows, os.path.join(results, "law.csv"))
         law.plot(fits, checks, os.path.join(results, "law.png"))
-    # the stiffnesses each fit's points ran at: the words quote the mass term at one of them
-    stiff = {k: sorted({p["youngs_modulus"] for p in pts}) for k, (_, pts) in fits.items()}
-    words = [dict(r, stiffnesses=stiff[(r["observable"], r["restitution"], r["friction"])]) for r in rows]
-    lines += _lines(render("law.md.j2", rows=words, formula=law.FORMULA))
+    lines += _lines(render("law.md.j2", rows=law_words(rows, fits), formula=law.FORMULA))
+
+
+def law_words(rows, fits):
+    """The law's rows for its words: each with the stiffnesses its fit's points ran at
+    (``stiffnesses``), the one its mass term is quoted at (``mass_at``: E_REF where the points hold
+    it, else the lowest of theirs) and that term for a mass 10 % too large (``mass_10pct``, %)."""
+    from .. import law
+
+    out = []
+    for r in rows:
+        es = sorted({p["youngs_modulus"] for p in fits[(r["observable"], r["restitution"], r["friction"])][1]})
+        at = law.E_REF if law.E_REF in es or not es else es[0]
+        out.append(dict(r, stiffnesses=es, mass_at=at, mass_10pct=10 * r["coef_mass"] * law.softness(at)))
+    return out
 
 
 def sphere_gas_section(lines, sph):

@@ -364,7 +364,7 @@ def cooling_campaign(name="hcs_clumps"):
 
 def cooling_answer(clumps, case="uncorrected"):
     """Does the correction matter in a cooling gas?  One row per shape and contact law: ``case``'s
-    effect against exact on each observable, whether its interval excludes 0.
+    paired effect against exact on each observable, whether its interval excludes 0.
 
     Parameters
     ----------
@@ -376,7 +376,7 @@ def cooling_answer(clumps, case="uncorrected"):
     Returns
     -------
     dict
-        ``rows``: shape, restitution, friction, n_pairs (the fewest of its observables) and
+        ``rows``: shape, youngs_modulus, restitution, friction, n_pairs (the fewest of its observables) and
         ``effects``: observable -> dict(relative, low, high, halfwidth, resolved), resolved None
         with fewer than two pairs; in the table's order.  ``n``: the effects with an interval;
         ``resolved``: those whose interval excludes 0; ``smallest``, ``largest``: their sizes
@@ -385,11 +385,11 @@ def cooling_answer(clumps, case="uncorrected"):
     """
     out = {}
     for c in clumps:
-        if c["case"] != case:
+        if c["case"] != case or c.get("protocol", "paired") != "paired":
             continue
-        key = (c["shape"], float(c["restitution"]), float(c["friction"]))
-        row = out.setdefault(key, dict(shape=key[0], restitution=key[1], friction=key[2], n_pairs=int(c["n_pairs"]),
-                                       effects={}))
+        key = (c["shape"], float(c["youngs_modulus"]), float(c["restitution"]), float(c["friction"]))
+        row = out.setdefault(key, dict(shape=key[0], youngs_modulus=key[1], restitution=key[2], friction=key[3],
+                                       n_pairs=int(c["n_pairs"]), effects={}))
         row["n_pairs"] = min(row["n_pairs"], int(c["n_pairs"]))
         two = c["n_pairs"] >= 2
         row["effects"][c["observable"]] = dict(
