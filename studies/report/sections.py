@@ -75,7 +75,8 @@ def cooling_section(lines, results):
     theory, clumps, record, predicted = tables.cooling_tables(results)
     est, moving, n_relax = tables.cooling_checks(results)
     lines += _lines(render("cooling.md.j2", theory=theory, clumps=clumps, record=record, predicted=predicted,
-                           answer=tables.cooling_answer(clumps), campaign=tables.cooling_campaign(), estimator=est, moving=moving, n_relax=n_relax, flow=tables.cooling_flow(results),
+                           answer=tables.cooling_answer(clumps), campaign=tables.cooling_campaign(),
+                           estimator=est, moving=moving, n_relax=n_relax, flow=tables.cooling_flow(results),
                            window=tables.cooling_window(results), settling=tables.cooling_settling(results),
                            maxwellian=tables.cooling_maxwellian(results)))
 

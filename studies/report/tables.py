@@ -320,12 +320,14 @@ def cooling_tables(results):
         clumps.append(dict(r, halfwidth=(r["relative_ci_high"] - r["relative_ci_low"]) / 2,
                            target=HCS_TARGETS[r["observable"]],
                            predicted=None if p is None else float(p["predicted"]),
-                           predicted_se=None if p is None else float(p["predicted_se"])))
+                           predicted_se=None if p is None else float(p["predicted_se"]),
+                           inside=p is not None and r["n_pairs"] >= 2
+                           and r["relative_ci_low"] <= float(p["predicted"]) <= r["relative_ci_high"]))
     both = [c for c in clumps if c["predicted"] is not None and c["n_pairs"] >= 2]
     apart = [c for c in both if not (c["relative_ci_low"] <= c["predicted"] + 1.96 * c["predicted_se"]
                                      and c["predicted"] - 1.96 * c["predicted_se"] <= c["relative_ci_high"])]
     record = dict(n=len(both), overlap=len(both) - len(apart), apart=len(apart), apart_rows=apart,
-                  contain=sum(c["relative_ci_low"] <= c["predicted"] <= c["relative_ci_high"] for c in both),
+                  contain=sum(c["inside"] for c in both),
                   n_rows=len(clumps), targets_met=sum(c["n_pairs"] >= 2 and c["halfwidth"] <= c["target"]
                                                       for c in clumps),
                   costs=predictor_costs(preds.values()), cost_target=PREDICTOR_TARGET_CPU_MIN) if clumps else None
@@ -395,7 +397,7 @@ def cooling_answer(clumps, case="uncorrected"):
         row["effects"][c["observable"]] = dict(
             relative=c["relative"], low=c["relative_ci_low"], high=c["relative_ci_high"],
             halfwidth=c["halfwidth"],
-            resolved=(c["relative_ci_low"] > 0 or c["relative_ci_high"] < 0) if two else None)
+            resolved=_excludes_zero(c, "relative") if two else None)
     rows = list(out.values())
     judged = [dict(x, shape=r["shape"], friction=r["friction"], observable=o)
               for r in rows for o, x in r["effects"].items() if x["resolved"] is not None]
